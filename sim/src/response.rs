@@ -1,0 +1,333 @@
+//! Exact sampled responses to half-sine hammer pulses.
+//!
+//! Two acquisition models:
+//! - [`AnalyzerEngine`]: structure, half-sine pulse generator and one analog
+//!   anti-alias filter per channel form one continuous linear system whose
+//!   state is propagated exactly (matrix exponentials, split at the pulse's
+//!   start and end) on the internal ADC grid; the decimation FIR is then
+//!   applied. Outside the pulse the system is free, so once a FIR window
+//!   lies entirely after the pulse its output is `G z` with the precomputed
+//!   `G = C_out sum_k h_k Phi^k`, and the state advances one analysis step
+//!   at a time. [`AnalyzerEngine::reference_response`] computes the same
+//!   thing sample by sample on the whole internal grid (the test oracle).
+//! - [`HeldEngine`]: the force is held constant over each analysis sample at
+//!   its mean value over the sample (zero-order hold) and the structure's
+//!   response is the exact ZOH discretization; no analyzer chain.
+//!
+//! Channel 0 of every response is the force, channel 1 + j the absolute
+//! acceleration of DOF j.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::analyzer::{AnalyzerDesign, butterworth, kaiser_lowpass};
+use crate::hammer::Pulse;
+use crate::model::Model;
+
+/// Sampled channels: `channels[c][n]`, c = 0 force, 1.. accelerations.
+pub type Channels = Vec<Vec<f64>>;
+
+/// Exact analyzer-chain response engine for one model, hit floor, pulse
+/// duration and sampling; build once, call for many hits.
+#[derive(Debug, Clone)]
+pub struct AnalyzerEngine {
+    n_out: usize,
+    samples: usize,
+    oversampling: usize,
+    dt_internal_s: f64,
+    pulse_duration_s: f64,
+    a_on: DMatrix<f64>,
+    a_off: DMatrix<f64>,
+    c_out: DMatrix<f64>,
+    phi_on: DMatrix<f64>,
+    phi_off: DMatrix<f64>,
+    phi_off_analysis: DMatrix<f64>,
+    g: DMatrix<f64>,
+    taps: Vec<f64>,
+}
+
+impl AnalyzerEngine {
+    /// `input_dof` is zero-based; `dt_s` the analysis sample interval.
+    pub fn new(
+        model: &Model,
+        input_dof: usize,
+        pulse_duration_s: f64,
+        dt_s: f64,
+        samples: usize,
+        design: &AnalyzerDesign,
+    ) -> Self {
+        let n = model.dofs();
+        let sys = model.state_space(input_dof);
+        let filt = butterworth(design.analog_order, design.analog_cutoff_hz);
+        let nf = filt.a.nrows();
+        let n_out = n + 1;
+        let xs = 2; // structure states start after the two generator states
+        let fs = xs + 2 * n; // filter blocks start here
+        let dim = fs + nf * n_out;
+        let mut a_off = DMatrix::zeros(dim, dim);
+        a_off.view_mut((xs, xs), (2 * n, 2 * n)).copy_from(&sys.a);
+        for ch in 0..n_out {
+            let o = fs + ch * nf;
+            a_off.view_mut((o, o), (nf, nf)).copy_from(&filt.a);
+            if ch > 0 {
+                let coupling = &filt.b * sys.c.row(ch - 1);
+                a_off.view_mut((o, xs), (nf, 2 * n)).copy_from(&coupling);
+            }
+        }
+        // During the pulse: generator s1' = w s2, s2' = -w s1 with
+        // s(t0) = [0, P], so s1 = P sin(w (t - t0)) is the force u.
+        let w = std::f64::consts::PI / pulse_duration_s;
+        let mut a_on = a_off.clone();
+        a_on[(0, 1)] = w;
+        a_on[(1, 0)] = -w;
+        for r in 0..2 * n {
+            a_on[(xs + r, 0)] = sys.b[(r, 0)];
+        }
+        for ch in 0..n_out {
+            let o = fs + ch * nf;
+            let feedthrough = if ch == 0 { 1.0 } else { sys.d[(ch - 1, 0)] };
+            for r in 0..nf {
+                a_on[(o + r, 0)] += filt.b[(r, 0)] * feedthrough;
+            }
+        }
+        let mut c_out = DMatrix::zeros(n_out, dim);
+        for ch in 0..n_out {
+            c_out
+                .view_mut((ch, fs + ch * nf), (1, nf))
+                .copy_from(&filt.c);
+        }
+        let dt_internal_s = dt_s / design.oversampling as f64;
+        let phi_on = (&a_on * dt_internal_s).exp();
+        let phi_off = (&a_off * dt_internal_s).exp();
+        let phi_off_analysis = (&a_off * dt_s).exp();
+        let taps = kaiser_lowpass(
+            design.internal_rate_hz,
+            design.passband_hz,
+            design.stopband_hz,
+            design.stopband_attenuation_db,
+        );
+        // G = C_out sum_k taps[k] Phi_off^k: the FIR output of a free
+        // response whose window starts at the current state.
+        let mut g = DMatrix::zeros(n_out, dim);
+        let mut row = c_out.clone();
+        for (k, &t) in taps.iter().enumerate() {
+            g += &row * t;
+            if k + 1 < taps.len() {
+                row = &row * &phi_off;
+            }
+        }
+        AnalyzerEngine {
+            n_out,
+            samples,
+            oversampling: design.oversampling,
+            dt_internal_s,
+            pulse_duration_s,
+            a_on,
+            a_off,
+            c_out,
+            phi_on,
+            phi_off,
+            phi_off_analysis,
+            g,
+            taps,
+        }
+    }
+
+    /// Half-length L of the decimation FIR (taps span internal samples
+    /// -L..=L around each analysis instant).
+    pub fn fir_half_length(&self) -> usize {
+        self.taps.len() / 2
+    }
+
+    /// Noise-free channels for the given pulses (superposition: every pulse
+    /// is simulated from rest and the responses are added).
+    pub fn response(&self, pulses: &[Pulse]) -> Channels {
+        let mut out = vec![vec![0.0; self.samples]; self.n_out];
+        for p in pulses {
+            self.add_pulse(p, &mut out);
+        }
+        out
+    }
+
+    fn initial_state(&self, p: &Pulse) -> DVector<f64> {
+        assert!(
+            (p.duration_s - self.pulse_duration_s).abs() <= 1e-12 * self.pulse_duration_s,
+            "engine built for pulses of {} s, got {} s",
+            self.pulse_duration_s,
+            p.duration_s
+        );
+        let mut z = DVector::zeros(self.a_on.nrows());
+        z[1] = p.peak_n;
+        z
+    }
+
+    /// Exact propagation from `from_s` to `to_s` (both at or after the
+    /// pulse start), switching from the pulse dynamics to free dynamics at
+    /// the pulse end.
+    fn advance(&self, z: &DVector<f64>, p: &Pulse, from_s: f64, to_s: f64) -> DVector<f64> {
+        let t1 = p.end_s();
+        let mut z = z.clone();
+        let mut t = from_s;
+        if t < t1 {
+            let until = to_s.min(t1);
+            z = (&self.a_on * (until - t)).exp() * z;
+            t = until;
+        }
+        if to_s > t {
+            z = (&self.a_off * (to_s - t)).exp() * z;
+        }
+        z
+    }
+
+    /// One internal step from index `i` to `i + 1`.
+    fn step(&self, z: &DVector<f64>, p: &Pulse, i: i64, i_end: i64) -> DVector<f64> {
+        if i + 1 < i_end {
+            &self.phi_on * z
+        } else if i >= i_end {
+            &self.phi_off * z
+        } else {
+            let ti = self.dt_internal_s;
+            self.advance(z, p, i as f64 * ti, (i + 1) as f64 * ti)
+        }
+    }
+
+    fn add_pulse(&self, p: &Pulse, out: &mut Channels) {
+        let ti = self.dt_internal_s;
+        let d = self.oversampling as i64;
+        let l = self.fir_half_length() as i64;
+        let n_total = self.samples as i64;
+        let i_a = (p.start_s / ti).ceil() as i64; // first grid instant at or after the start
+        let i_e = (p.end_s() / ti).ceil() as i64; // first grid instant at or after the end
+        let n_first = div_ceil(i_a - l, d).max(0);
+        let n_closed = div_ceil(i_e + l, d).max(n_first); // window starts at or after i_e
+        let n_explicit_end = n_closed.min(n_total);
+        if n_first >= n_total {
+            return;
+        }
+        let i_closed = n_closed * d - l;
+        let i_stop =
+            ((n_explicit_end - 1) * d + l).max(if n_closed < n_total { i_closed } else { i_a });
+        let count = (i_stop - i_a + 1).max(1) as usize;
+        // Internal samples s_i = C_out z_i on [i_a, i_stop].
+        let mut s = DMatrix::zeros(self.n_out, count);
+        let mut z = self.advance(&self.initial_state(p), p, p.start_s, i_a as f64 * ti);
+        let mut z_closed = None;
+        for (k, i) in (i_a..=i_stop).enumerate() {
+            s.set_column(k, &(&self.c_out * &z));
+            if i == i_closed {
+                z_closed = Some(z.clone());
+            }
+            if i < i_stop {
+                z = self.step(&z, p, i, i_e);
+            }
+        }
+        for n in n_first..n_explicit_end {
+            let lo = (n * d - l).max(i_a);
+            let hi = n * d + l;
+            for ch in 0..self.n_out {
+                let mut acc = 0.0;
+                for i in lo..=hi {
+                    acc += self.taps[(i - (n * d - l)) as usize] * s[(ch, (i - i_a) as usize)];
+                }
+                out[ch][n as usize] += acc;
+            }
+        }
+        if n_closed < n_total {
+            let mut z = z_closed.expect("closed-form start lies in the explicit range");
+            for n in n_closed..n_total {
+                let y = &self.g * &z;
+                for ch in 0..self.n_out {
+                    out[ch][n as usize] += y[ch];
+                }
+                z = &self.phi_off_analysis * z;
+            }
+        }
+    }
+
+    /// Brute-force oracle: the whole internal grid stepped one sample at a
+    /// time and the FIR evaluated explicitly at every analysis instant.
+    pub fn reference_response(&self, pulses: &[Pulse]) -> Channels {
+        let ti = self.dt_internal_s;
+        let d = self.oversampling as i64;
+        let l = self.fir_half_length() as i64;
+        let mut out = vec![vec![0.0; self.samples]; self.n_out];
+        for p in pulses {
+            let i_a = (p.start_s / ti).ceil() as i64;
+            let i_e = (p.end_s() / ti).ceil() as i64;
+            let i_stop = (self.samples as i64 - 1) * d + l;
+            let mut s: Vec<DVector<f64>> = Vec::new();
+            let mut z = self.advance(&self.initial_state(p), p, p.start_s, i_a as f64 * ti);
+            for i in i_a..=i_stop {
+                s.push(&self.c_out * &z);
+                z = self.step(&z, p, i, i_e);
+            }
+            for (n, _) in out[0].clone().iter().enumerate() {
+                let centre = n as i64 * d;
+                for k in 0..self.taps.len() as i64 {
+                    let i = centre - l + k;
+                    if i >= i_a {
+                        let v = &s[(i - i_a) as usize];
+                        for (ch, channel) in out.iter_mut().enumerate() {
+                            channel[n] += self.taps[k as usize] * v[ch];
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Ceiling division for a positive divisor.
+fn div_ceil(a: i64, b: i64) -> i64 {
+    a.div_euclid(b) + i64::from(a.rem_euclid(b) != 0)
+}
+
+/// Zero-order-hold engine: force held at its mean over each sample.
+#[derive(Debug, Clone)]
+pub struct HeldEngine {
+    samples: usize,
+    dt_s: f64,
+    phi: DMatrix<f64>,
+    gamma: DVector<f64>,
+    c: DMatrix<f64>,
+    d: DVector<f64>,
+}
+
+impl HeldEngine {
+    pub fn new(model: &Model, input_dof: usize, dt_s: f64, samples: usize) -> Self {
+        let sys = model.state_space(input_dof);
+        let ns = sys.a.nrows();
+        // exp([[A, B], [0, 0]] dt) = [[Phi, Gamma], [0, 1]].
+        let mut aug = DMatrix::zeros(ns + 1, ns + 1);
+        aug.view_mut((0, 0), (ns, ns)).copy_from(&sys.a);
+        aug.view_mut((0, ns), (ns, 1)).copy_from(&sys.b);
+        let e = (aug * dt_s).exp();
+        HeldEngine {
+            samples,
+            dt_s,
+            phi: e.view((0, 0), (ns, ns)).into_owned(),
+            gamma: e.view((0, ns), (ns, 1)).column(0).into_owned(),
+            c: sys.c,
+            d: sys.d.column(0).into_owned(),
+        }
+    }
+
+    /// The held force (mean of the pulses over each sample) and the exact
+    /// response to it: `y[k] = C x[k] + D u[k]`, `x[k+1] = Phi x[k] + Gamma u[k]`.
+    pub fn response(&self, pulses: &[Pulse]) -> Channels {
+        let n = self.c.nrows();
+        let mut out = vec![vec![0.0; self.samples]; n + 1];
+        let mut x = DVector::zeros(self.phi.nrows());
+        for k in 0..self.samples {
+            let (a, b) = (k as f64 * self.dt_s, (k + 1) as f64 * self.dt_s);
+            let u: f64 = pulses.iter().map(|p| p.integral(a, b)).sum::<f64>() / self.dt_s;
+            out[0][k] = u;
+            let y = &self.c * &x + &self.d * u;
+            for j in 0..n {
+                out[j + 1][k] = y[j];
+            }
+            x = &self.phi * x + &self.gamma * u;
+        }
+        out
+    }
+}
