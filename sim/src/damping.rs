@@ -22,6 +22,8 @@ pub enum DampingSpec {
     /// A damping ratio for every mode (ascending frequency):
     /// `damping = M Phi diag(2 xi_i w_i) Phi^T M` with mass-normalized Phi.
     Modal { ratios: Vec<f64> },
+    /// The damping matrix given directly (rows), N s/m.
+    Matrix { matrix: Vec<Vec<f64>> },
 }
 
 /// A viscous dashpot across one storey (between floor `storey - 1`, the
@@ -105,6 +107,7 @@ pub fn build_damping(
             let mphi = m * &phi;
             &mphi * DMatrix::from_diagonal(&diag) * mphi.transpose()
         }
+        DampingSpec::Matrix { matrix } => matrix_from_rows("damping.matrix", matrix, n)?,
     };
     for (i, d) in dashpots.iter().enumerate() {
         if d.storey == 0 || d.storey > n {
@@ -129,6 +132,25 @@ pub fn build_damping(
         }
     }
     Ok((&r + r.transpose()) * 0.5)
+}
+
+/// A square n x n matrix from rows; errors name `field` and the bad row.
+pub fn matrix_from_rows(field: &str, rows: &[Vec<f64>], n: usize) -> Result<DMatrix<f64>, SimError> {
+    if rows.len() != n {
+        return Err(SimError::invalid(field, format!("has {} rows, expected {n}", rows.len())));
+    }
+    for (i, row) in rows.iter().enumerate() {
+        if row.len() != n {
+            return Err(SimError::invalid(
+                format!("{field}[{i}]"),
+                format!("has {} entries, expected {n}", row.len()),
+            ));
+        }
+        if let Some(j) = row.iter().position(|v| !v.is_finite()) {
+            return Err(SimError::invalid(format!("{field}[{i}][{j}]"), "is not a finite number"));
+        }
+    }
+    Ok(DMatrix::from_fn(n, n, |i, j| rows[i][j]))
 }
 
 #[cfg(test)]

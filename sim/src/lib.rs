@@ -37,7 +37,7 @@ pub use analyzer::AnalyzerSettings;
 pub use campaign::{
     Acquisition, Campaign, CampaignSettings, Hit, Sampling, Simulator, derive_seed,
 };
-pub use damping::{DampingSpec, Dashpot, build_damping};
+pub use damping::{DampingSpec, Dashpot, build_damping, matrix_from_rows};
 pub use error::SimError;
 pub use hammer::{DoubleHit, HammerSettings, Pulse};
 pub use model::{ContinuousSystem, ModalProperties, Model};

@@ -1,0 +1,5 @@
+//! frameid harness: scenarios, simulated campaigns on disk, identification
+//! runs, sweeps and reports. The `frameid` binary is thin glue over this
+//! library; the numerics live in the `sim` and `ident` crates.
+
+pub mod scenario;
