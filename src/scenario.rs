@@ -6,7 +6,9 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use sim::{CampaignSettings, DampingSpec, Dashpot, Floor, Model, ShearFrame, SimError, Simulator, Storey};
+use sim::{
+    CampaignSettings, DampingSpec, Dashpot, Floor, Model, ShearFrame, SimError, Simulator, Storey,
+};
 
 /// A scenario as written in its file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -35,9 +37,15 @@ fn no_damping() -> DampingSpec {
 #[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
 pub enum StructureSpec {
     /// Mass (kg) and stiffness (N/m) matrices as arrays of rows.
-    Matrices { mass: Vec<Vec<f64>>, stiffness: Vec<Vec<f64>> },
+    Matrices {
+        mass: Vec<Vec<f64>>,
+        stiffness: Vec<Vec<f64>>,
+    },
     /// Storeys (bottom up) and the floors they carry.
-    ShearFrame { storeys: Vec<Storey>, floors: Vec<Floor> },
+    ShearFrame {
+        storeys: Vec<Storey>,
+        floors: Vec<Floor>,
+    },
 }
 
 /// Why a scenario cannot be used.
@@ -48,15 +56,27 @@ pub enum ScenarioError {
     /// Not valid TOML or not the schema (the message carries line and column).
     Parse { path: PathBuf, message: String },
     /// A field has an invalid value.
-    Invalid { path: PathBuf, field: String, problem: String },
+    Invalid {
+        path: PathBuf,
+        field: String,
+        problem: String,
+    },
 }
 
 impl fmt::Display for ScenarioError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            ScenarioError::Io { path, message } => write!(f, "{}: cannot read scenario: {message}", path.display()),
-            ScenarioError::Parse { path, message } => write!(f, "{}: {}", path.display(), message.trim_end()),
-            ScenarioError::Invalid { path, field, problem } => write!(f, "{}: {field}: {problem}", path.display()),
+            ScenarioError::Io { path, message } => {
+                write!(f, "{}: cannot read scenario: {message}", path.display())
+            }
+            ScenarioError::Parse { path, message } => {
+                write!(f, "{}: {}", path.display(), message.trim_end())
+            }
+            ScenarioError::Invalid {
+                path,
+                field,
+                problem,
+            } => write!(f, "{}: {field}: {problem}", path.display()),
         }
     }
 }
@@ -79,7 +99,10 @@ impl Scenario {
             message: e.to_string(),
         })?;
         if s.name.is_empty() {
-            s.name = path.file_stem().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            s.name = path
+                .file_stem()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
         }
         Ok(s)
     }
@@ -239,19 +262,28 @@ peak_n = 10.0
             load_text(&bad).unwrap_err().to_string(),
             "case.toml: campaign.hammer.floor: floor 3 does not exist; floors are numbered 1..=2"
         );
-        let bad = MINIMAL.replace("[[200.0, -100.0], [-100.0, 100.0]]", "[[200.0, -100.0], [-100.0]]");
+        let bad = MINIMAL.replace(
+            "[[200.0, -100.0], [-100.0, 100.0]]",
+            "[[200.0, -100.0], [-100.0]]",
+        );
         assert_eq!(
             load_text(&bad).unwrap_err().to_string(),
             "case.toml: structure.stiffness[1]: has 1 entries, expected 2"
         );
-        let bad = MINIMAL.replace("[[200.0, -100.0], [-100.0, 100.0]]", "[[100.0, -200.0], [-200.0, 100.0]]");
+        let bad = MINIMAL.replace(
+            "[[200.0, -100.0], [-100.0, 100.0]]",
+            "[[100.0, -200.0], [-200.0, 100.0]]",
+        );
         assert_eq!(
             load_text(&bad).unwrap_err().to_string(),
             "case.toml: structure.stiffness: not positive definite (Cholesky pivot 1 is not positive)"
         );
         let bad = MINIMAL.replace("peak_n = 10.0", "peak_n = 10.0\npeak = 3");
         let msg = load_text(&bad).unwrap_err().to_string();
-        assert!(msg.contains("line 18") && msg.contains("unknown field `peak`"), "{msg}");
+        assert!(
+            msg.contains("line 18") && msg.contains("unknown field `peak`"),
+            "{msg}"
+        );
         let bad = MINIMAL.replace("alpha = 0.1", "alpha = -0.1");
         assert_eq!(
             load_text(&bad).unwrap_err().to_string(),

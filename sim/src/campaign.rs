@@ -196,6 +196,15 @@ impl Simulator {
 
     /// Simulates a campaign. Bit-identical for the same seed.
     pub fn simulate(&self, seed: u64) -> Campaign {
+        self.simulate_with_noise(seed, &self.settings.noise)
+    }
+
+    /// Simulates a campaign with other noise settings than the scenario's
+    /// (a noise sweep reuses one simulator). The pulses depend on the seed
+    /// only, and the normal draws do not depend on the noise level, so
+    /// campaigns differing only in noise level share their pulses and the
+    /// shape of their noise.
+    pub fn simulate_with_noise(&self, seed: u64, noise: &NoiseSettings) -> Campaign {
         let pulses = self.draw_pulses(seed);
         let mut rng = ChaCha8Rng::seed_from_u64(derive_seed(seed, 2));
         let sign = if self.settings.invert_force_polarity {
@@ -208,7 +217,7 @@ impl Simulator {
             .map(|p| {
                 let mut ch = self.clean_response(&p);
                 for (c, channel) in ch.iter_mut().enumerate() {
-                    self.settings.noise.apply(channel, c == 0, &mut rng);
+                    noise.apply(channel, c == 0, &mut rng);
                 }
                 let mut force = ch.remove(0);
                 force.iter_mut().for_each(|v| *v *= sign);

@@ -135,9 +135,16 @@ pub fn build_damping(
 }
 
 /// A square n x n matrix from rows; errors name `field` and the bad row.
-pub fn matrix_from_rows(field: &str, rows: &[Vec<f64>], n: usize) -> Result<DMatrix<f64>, SimError> {
+pub fn matrix_from_rows(
+    field: &str,
+    rows: &[Vec<f64>],
+    n: usize,
+) -> Result<DMatrix<f64>, SimError> {
     if rows.len() != n {
-        return Err(SimError::invalid(field, format!("has {} rows, expected {n}", rows.len())));
+        return Err(SimError::invalid(
+            field,
+            format!("has {} rows, expected {n}", rows.len()),
+        ));
     }
     for (i, row) in rows.iter().enumerate() {
         if row.len() != n {
@@ -147,7 +154,10 @@ pub fn matrix_from_rows(field: &str, rows: &[Vec<f64>], n: usize) -> Result<DMat
             ));
         }
         if let Some(j) = row.iter().position(|v| !v.is_finite()) {
-            return Err(SimError::invalid(format!("{field}[{i}][{j}]"), "is not a finite number"));
+            return Err(SimError::invalid(
+                format!("{field}[{i}][{j}]"),
+                "is not a finite number",
+            ));
         }
     }
     Ok(DMatrix::from_fn(n, n, |i, j| rows[i][j]))
