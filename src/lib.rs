@@ -3,3 +3,4 @@
 //! library; the numerics live in the `sim` and `ident` crates.
 
 pub mod scenario;
+pub mod truth;
