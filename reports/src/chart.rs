@@ -17,6 +17,7 @@
 
 use std::fmt::Write as _;
 
+use std::collections::BTreeSet;
 use std::ops::Range;
 
 use plotters::coord::Shift;
@@ -730,11 +731,34 @@ impl Groups {
     }
 }
 
-/// Counts of data points that could not be drawn as they are.
+/// Data values that could not be drawn as they are, each counted once even
+/// when a line and markers show the same series: (series, index, part).
 #[derive(Default)]
 struct Tally {
-    skipped: usize,
-    clamped: usize,
+    keys: Vec<String>,
+    skipped: BTreeSet<(usize, usize, u8)>,
+    clamped: BTreeSet<(usize, usize, u8)>,
+}
+
+impl Tally {
+    fn series(&mut self, key: &str) -> usize {
+        match self.keys.iter().position(|k| k == key) {
+            Some(i) => i,
+            None => {
+                self.keys.push(key.to_string());
+                self.keys.len() - 1
+            }
+        }
+    }
+
+    /// Records how the coordinates of value `i` (part `part`) were mapped.
+    fn record(&mut self, series: usize, i: usize, part: u8, mapped: &[Mapped]) {
+        if mapped.contains(&Mapped::Skip) {
+            self.skipped.insert((series, i, part));
+        } else if mapped.iter().any(|m| matches!(m, Mapped::Clamped(_))) {
+            self.clamped.insert((series, i, part));
+        }
+    }
 }
 
 fn rgb(c: Rgb) -> RGBColor {
@@ -743,6 +767,12 @@ fn rgb(c: Rgb) -> RGBColor {
 
 fn font(px: f64) -> FontDesc<'static> {
     ("sans-serif", px * FONT_SCALE).into_font()
+}
+
+/// Text for plotters, which escapes markup but passes control characters
+/// through; they are not allowed in HTML.
+fn clean(s: &str) -> String {
+    s.chars().filter(|c| !c.is_control()).collect()
 }
 
 fn text_width(text: &str, px: f64) -> f64 {
@@ -910,23 +940,21 @@ pub fn draw(chart: &Chart) -> Result<Drawn, ReportError> {
     draw_into(chart, &mut raw, &mut groups, &mut tally).map_err(fail)?;
 
     let mut notes = vec![];
-    if tally.skipped > 0 {
+    let (skipped, clamped) = (tally.skipped.len(), tally.clamped.len());
+    if skipped > 0 {
         notes.push(format!(
-            "{} non-finite or out-of-range value(s) not drawn.",
-            tally.skipped
+            "{skipped} non-finite or out-of-range value(s) not drawn."
         ));
     }
-    if tally.clamped > 0 {
+    if clamped > 0 {
         if chart.y.is_log() {
             notes.push(format!(
-                "{} value(s) ≤ 0 or below the axis drawn at its bottom ({}).",
-                tally.clamped,
+                "{clamped} value(s) ≤ 0 or below the axis drawn at its bottom ({}).",
                 crate::format::sig(chart.y.bottom_value(), 2)
             ));
         } else {
             notes.push(format!(
-                "{} value(s) outside the axis range drawn at its edge.",
-                tally.clamped
+                "{clamped} value(s) outside the axis range drawn at its edge."
             ));
         }
     }
@@ -953,7 +981,7 @@ fn draw_into(
     groups.open(&root, "class=\"chart-title\"".into())?;
     let body = root
         .titled(
-            &chart.title,
+            &clean(&chart.title),
             font(px).style(FontStyle::Bold).color(&rgb(palette::DARK)),
         )
         .map_err(e)?;
@@ -995,8 +1023,8 @@ fn draw_into(
         .map_err(e)?;
 
     groups.open(&root, "class=\"axes\"".into())?;
-    let xf = |v: &f64| chart.x.label_at(*v);
-    let yf = |v: &f64| chart.y.label_at(*v);
+    let xf = |v: &f64| clean(&chart.x.label_at(*v));
+    let yf = |v: &f64| clean(&chart.y.label_at(*v));
     cc.configure_mesh()
         .bold_line_style(RGBColor(0xD9, 0xD9, 0xD9))
         .light_line_style(RGBColor(0xF0, 0xF0, 0xF0))
@@ -1016,7 +1044,7 @@ fn draw_into(
     let label_style = font(LABEL_PX).color(&RGBColor(0x22, 0x22, 0x22));
     groups.open(&root, "class=\"axis-label\" data-axis=\"x\"".into())?;
     root.draw(&Text::new(
-        chart.x.label.clone(),
+        clean(&chart.x.label),
         ((px_range.start + px_range.end) / 2, py_range.end + 22),
         label_style.clone().pos(Pos::new(HPos::Center, VPos::Top)),
     ))
@@ -1024,7 +1052,7 @@ fn draw_into(
     groups.close(&root)?;
     groups.open(&root, "class=\"axis-label\" data-axis=\"y\"".into())?;
     root.draw(&Text::new(
-        chart.y.label.clone(),
+        clean(&chart.y.label),
         (4, (py_range.start + py_range.end) / 2),
         label_style
             .transform(FontTransform::Rotate270)
@@ -1056,6 +1084,7 @@ fn draw_into(
     }
 
     for layer in &chart.layers {
+        let sid = tally.series(&layer.key);
         let color = rgb(layer.color);
         let key = escape(&layer.key);
         let role = layer.role();
@@ -1072,15 +1101,12 @@ fn draw_into(
                 let mut prev_y: Option<f64> = None;
                 let mut prev_zero: Option<bool> = None;
                 let mut n = 0;
-                for &(x, y) in points {
+                for (i, &(x, y)) in points.iter().enumerate() {
                     let (mx, my) = (chart.x.map(x), chart.y.map(y));
+                    tally.record(sid, i, 0, &[mx, my]);
                     match (mx.coord(), my.coord()) {
                         (Some(u), Some(v)) => {
                             n += 1;
-                            if matches!(my, Mapped::Clamped(_)) || matches!(mx, Mapped::Clamped(_))
-                            {
-                                tally.clamped += 1;
-                            }
                             let zero = chart.x.in_zero_slot(x);
                             let jump = match (max_jump, prev_y) {
                                 (Some(j), Some(p)) => (y - p).abs() > *j,
@@ -1094,7 +1120,6 @@ fn draw_into(
                             prev_y = Some(y);
                         }
                         _ => {
-                            tally.skipped += 1;
                             prev_y = None;
                             prev_zero = None;
                             if !current.is_empty() {
@@ -1129,17 +1154,11 @@ fn draw_into(
                 size,
             } => {
                 let mut pixels = vec![];
-                for &(x, y) in points {
+                for (i, &(x, y)) in points.iter().enumerate() {
                     let (mx, my) = (chart.x.map(x), chart.y.map(y));
-                    match (mx.coord(), my.coord()) {
-                        (Some(u), Some(v)) => {
-                            if matches!(my, Mapped::Clamped(_)) || matches!(mx, Mapped::Clamped(_))
-                            {
-                                tally.clamped += 1;
-                            }
-                            pixels.push(to_px((u, v)));
-                        }
-                        _ => tally.skipped += 1,
+                    tally.record(sid, i, 0, &[mx, my]);
+                    if let (Some(u), Some(v)) = (mx.coord(), my.coord()) {
+                        pixels.push(to_px((u, v)));
                     }
                 }
                 groups.open(
@@ -1161,6 +1180,8 @@ fn draw_into(
                 let mut prev_zero: Option<bool> = None;
                 for i in 0..x.len().min(lo.len()).min(hi.len()) {
                     let (mx, ml, mh) = (chart.x.map(x[i]), chart.y.map(lo[i]), chart.y.map(hi[i]));
+                    tally.record(sid, i, 1, &[mx, ml]);
+                    tally.record(sid, i, 2, &[mx, mh]);
                     match (mx.coord(), ml.coord(), mh.coord()) {
                         (Some(u), Some(a), Some(b)) => {
                             n += 1;
@@ -1227,7 +1248,7 @@ fn draw_into(
                 .map_err(e)?;
                 if let Some(l) = label {
                     root.draw(&Text::new(
-                        l.clone(),
+                        clean(l),
                         (px + 3, py_range.start + 2),
                         font(TICK_PX)
                             .color(&color)
@@ -1256,7 +1277,7 @@ fn draw_into(
                 .map_err(e)?;
                 if let Some(l) = label {
                     root.draw(&Text::new(
-                        l.clone(),
+                        clean(l),
                         (px_range.end - 4, py - 3),
                         font(TICK_PX)
                             .color(&color)
@@ -1306,7 +1327,7 @@ fn draw_into(
                     marker_element(&root, (x + LEGEND_SAMPLE / 2, y), shape, filled, 3, mc)?;
                 }
                 root.draw(&Text::new(
-                    entry.label.clone(),
+                    clean(&entry.label),
                     (x + LEGEND_SAMPLE + 6, y),
                     font(LEGEND_PX)
                         .color(&RGBColor(0x22, 0x22, 0x22))
