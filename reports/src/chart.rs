@@ -281,7 +281,8 @@ impl Axis {
             (0.0, 1.0)
         };
         let span = ((b - a).max(1.0)) as i64;
-        let step = ((span as f64) / 6.0).ceil().max(1.0) as i64;
+        // The smallest whole-decade step that needs at most 7 intervals.
+        let step = (1..=span).find(|s| (span + s - 1) / s <= 7).unwrap_or(span);
         let n = (span + step - 1) / step;
         let (lo, hi) = (a, a + (n * step) as f64);
         let decades: Vec<i64> = (0..=n).map(|k| a as i64 + k * step).collect();

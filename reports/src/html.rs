@@ -60,14 +60,14 @@ figcaption { font-size: .8rem; color: var(--muted); margin-top: .15rem; }
 .placeholder { border: 1px dashed var(--rule); color: var(--muted); padding: 1rem; font-size: .85rem; align-self: center; }
 .warnings { border-left: 4px solid var(--warn); padding: .3rem .8rem .3rem 1.6rem; margin: .5rem 0; }
 .missing { color: var(--muted); font-style: italic; }
+.quantity-group > h4::first-letter { text-transform: uppercase; }
 footer { margin-top: 3rem; color: var(--muted); font-size: .8rem; }
 @media print {
   body { max-width: none; padding: 0; font-size: 9.5pt; }
   a { color: inherit; text-decoration: none; }
-  nav.toc { break-after: page; }
   article.study + article.study { break-before: page; }
   h2, h3, h4 { break-after: avoid; page-break-after: avoid; }
-  figure.chart, .figure-row, table, tr { break-inside: avoid; page-break-inside: avoid; }
+  figure.chart, .figure-row, table, tr, .efficiency, .damping-comparison { break-inside: avoid; page-break-inside: avoid; }
   .table-wrap { overflow: visible; }
   table { font-size: 8pt; }
   th, td { padding: .1rem .35rem; }
@@ -410,20 +410,38 @@ fn accuracy(out: &mut String, sid: &str, acc: &Accuracy) -> Result<(), ReportErr
     let size = if k <= 2 { (440, 300) } else { (400, 300) };
     let log_x = x.label.contains("log");
 
-    let trials: Vec<String> = acc
+    // "200 trials per level", or per panel when they differ.
+    let per_panel: Vec<String> = acc
         .panels
         .iter()
         .map(|p| {
             let t: BTreeSet<usize> = p.trials.iter().copied().collect();
             let t: Vec<String> = t.iter().map(|n| n.to_string()).collect();
-            t.join("/")
+            if t.is_empty() {
+                MISSING.to_string()
+            } else {
+                t.join("/")
+            }
         })
         .collect();
+    let trials = if per_panel.iter().all(|t| *t == per_panel[0]) {
+        per_panel[0].clone()
+    } else {
+        acc.panels
+            .iter()
+            .zip(&per_panel)
+            .map(|(p, t)| match &p.axis_value {
+                Some(v) => format!("{t} for {v}"),
+                None => t.clone(),
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     w!(
         out,
         "<p class=\"lede\">Monte Carlo sweep over {} noise level(s) ({} trials per level). Lines: medians over successful trials; bands: 5th to 95th percentile; dashed lines: Cramér–Rao bound (standard deviation) where known.{}{}</p>\n",
         acc.panels[0].noise_levels.len(),
-        escape(&trials.join(", ")),
+        escape(&trials),
         if log_x {
             " Noise levels are on a log scale; 0 % is drawn left of the smallest positive level."
         } else {
