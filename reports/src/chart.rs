@@ -144,7 +144,7 @@ fn linear_ticks(lo: f64, hi: f64, target: f64) -> (f64, Vec<(f64, String)>) {
     let k0 = (lo / step - 1e-9).ceil() as i64;
     let k1 = (hi / step + 1e-9).floor() as i64;
     let max_abs = lo.abs().max(hi.abs());
-    let ticks = (k0..=k1.min(k0 + 40))
+    let ticks = (k0..=k1.min(k0.saturating_add(40)))
         .map(|k| {
             let v = k as f64 * step;
             (v, linear_tick_label(v, step, max_abs))
@@ -250,7 +250,7 @@ impl Axis {
         let step = nice_step(hi - lo, 8.0).max(1.0).round();
         let k0 = (lo / step).ceil() as i64;
         let k1 = (hi / step).floor() as i64;
-        let ticks = (k0..=k1.min(k0 + 40))
+        let ticks = (k0..=k1.min(k0.saturating_add(40)))
             .map(|k| {
                 let v = k as f64 * step;
                 (v, format!("{v:.0}"))
@@ -1002,7 +1002,7 @@ fn draw_into(
         rows.len() as i32 * LEGEND_ROW + 6
     };
     let body_h = body.dim_in_pixel().1 as i32;
-    let (upper, _) = body.split_vertically(body_h - legend_h);
+    let (upper, _) = body.split_vertically((body_h - legend_h).max(body_h / 2));
 
     let y_tick_chars = chart
         .y

@@ -584,7 +584,7 @@ pub fn quantity_axis(label: String, qs: &[&Quantity]) -> (Axis, Option<String>) 
     let (min_pos, _) = finite_range(values.iter().filter(|v| **v > 0.0));
     let positive = values.iter().filter(|v| **v > 0.0).count();
     let requested = qs.iter().find_map(|q| q.scale);
-    let auto_log = positive >= 2 && values.iter().all(|v| *v >= 0.0) && hi / min_pos >= 100.0;
+    let auto_log = positive >= 2 && values.iter().all(|v| *v >= 0.0) && hi / min_pos >= 10.0;
     match requested {
         Some(Scale::Log) if positive == 0 => (
             Axis::linear(label, lo, hi),
@@ -841,4 +841,60 @@ pub fn failure_rate(id: String, view: &PanelView<'_>) -> Fig {
 /// Trimmed label of a noise level in %.
 pub fn level_label(l: f64) -> String {
     format!("{} %", trim(l * 100.0, 3))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn q(median: Vec<f64>, scale: Option<Scale>) -> Quantity {
+        Quantity {
+            key: "k".into(),
+            label: "l".into(),
+            unit: String::new(),
+            group: String::new(),
+            p5: median.clone(),
+            p95: median.clone(),
+            median,
+            bound: None,
+            scale,
+        }
+    }
+
+    #[test]
+    fn relative_errors_get_a_log_axis() {
+        let log = |v: Vec<f64>, s| quantity_axis("y".into(), &[&q(v, s)]).0.is_log();
+        assert!(log(vec![1e-12, 1e-4, 1e-2], None));
+        assert!(
+            log(vec![0.0, 0.01, 0.2], None),
+            "zeros are clamped, not a reason for linear"
+        );
+        assert!(!log(vec![0.92, 0.97, 1.0], None), "less than a decade");
+        assert!(!log(vec![-1e-3, 1e-2, 1.0], None), "signed values");
+        assert!(log(vec![0.92, 0.97, 1.0], Some(Scale::Log)));
+        assert!(!log(vec![1e-12, 1e-2], Some(Scale::Linear)));
+        let (axis, note) = quantity_axis("y".into(), &[&q(vec![-1.0, 0.0], Some(Scale::Log))]);
+        assert!(!axis.is_log() && note.is_some());
+    }
+
+    #[test]
+    fn modal_assurance_criterion() {
+        let a = [[1.0, 0.0], [0.62, 0.01]];
+        assert!((mac(&a, &a).unwrap() - 1.0).abs() < 1e-15);
+        // Invariant to a complex scale factor.
+        let b: Vec<[f64; 2]> = a.iter().map(|c| [-c[1] * 2.0, c[0] * 2.0]).collect();
+        assert!((mac(&a, &b).unwrap() - 1.0).abs() < 1e-12);
+        let orthogonal = [[0.62, 0.0], [-1.0, 0.0]];
+        assert!(mac(&[[1.0, 0.0], [0.62, 0.0]], &orthogonal).unwrap() < 1e-12);
+        assert_eq!(mac(&[], &a), None);
+        assert_eq!(mac(&[[0.0, 0.0]], &[[0.0, 0.0]]), None);
+    }
+
+    #[test]
+    fn mode_phase_keeps_anti_phase_away_from_the_wrap() {
+        assert!((mode_phase_deg([-1.0, -1e-3]) - 180.06).abs() < 0.01);
+        assert!((mode_phase_deg([-1.0, 1e-3]) - 179.94).abs() < 0.01);
+        assert!((mode_phase_deg([0.0, -1.0]) - (-90.0)).abs() < 1e-12);
+        assert!(mode_phase_deg([f64::NAN, 0.0]).is_nan());
+    }
 }

@@ -1,15 +1,5 @@
 //! The HTML document: one file, inline CSS and SVG, no script, nothing
-//! fetched.
-//!
-//! Structure (what tests and readers can rely on):
-//! - `article.study#study-<i>` per study (1-based), with `data-study`;
-//! - in each: `section.setup`, `section.representative`,
-//!   `section.comparison` and `section.accuracy`, with ids
-//!   `study-<i>-setup` etc.;
-//! - every chart is a `figure.chart[data-chart]` holding one
-//!   `svg.chart[data-chart]` (see [`crate::chart`] for the groups inside);
-//! - tables: `table.setup`, `table.comparison[data-table]`,
-//!   `table.failures`, `table.efficiency`.
+//! fetched. The structure is described in the crate documentation.
 
 use std::collections::BTreeSet;
 use std::fmt::Write as _;

@@ -9,10 +9,39 @@
 //! accuracy against noise from the Monte Carlo sweep.
 //!
 //! The rendering is deterministic: the same report gives the same bytes.
-//! Non-finite values are skipped (and counted in the chart captions); only
-//! input whose parts cannot be matched up (e.g. a median vector whose length
+//! Non-finite values are skipped (and counted in the chart captions); values
+//! a log axis cannot show are drawn at its bottom (and counted). Only input
+//! whose parts cannot be matched up (e.g. a median vector whose length
 //! differs from the number of noise levels) is refused with
 //! [`ReportError::Inconsistent`].
+//!
+//! # Document structure
+//! Stable hooks for tests and for anyone post-processing the file:
+//! - `article.study#study-<i>` per study (1-based), `data-study` = name;
+//!   inside, `section.setup`, `section.representative`,
+//!   `section.comparison`, `section.accuracy` with ids
+//!   `study-<i>-setup`, `study-<i>-representative`, ...
+//! - every chart is a `figure.chart[data-chart]` holding exactly one
+//!   `svg.chart[data-chart]` with a `<title>`; `data-chart` is one of
+//!   `force`, `acceleration` (`data-floor`), `hankel`, `stabilization`,
+//!   `mode-magnitude`, `mode-phase` (`data-mode`), `frf-magnitude`,
+//!   `frf-phase` (`data-output`), `quantity` (`data-quantity` = key,
+//!   `data-panel`), `damping-comparison`, `failure-rate` (`data-panel`);
+//! - inside an SVG: `g.chart-title`, `g.axes` (grid, ticks, tick labels),
+//!   `g.axis-label[data-axis=x|y]`, one
+//!   `g.series[data-series][data-role=line|markers|band|rule][data-points]`
+//!   per layer (markers: one element per point; lines: `polyline`s, broken
+//!   at gaps; `data-points` = data points drawn), `g.legend` with one
+//!   `g.legend-entry[data-series]` per series when there are several;
+//! - series keys: `force`, `acceleration`; `retained`, `discarded`, rule
+//!   `order` (Hankel); `new`, `frequency`, `damping`, `stable`, rules
+//!   `mode-<k>` and `order` (stabilization); `identified`, `truth` (modes);
+//!   `measured`, `identified`, `truth` (FRF); `band`, `median`, `bound`
+//!   (quantity); `mkr-…` and `rayleigh-…` versions of those (damping
+//!   comparison); `failure-rate`;
+//! - tables: `table.setup`, `table.comparison[data-table]` whose error cells
+//!   carry `data-rel-error` (full precision, or `none`), `table.failures`
+//!   (`data-panel`), `table.efficiency`.
 
 mod chart;
 mod error;

@@ -206,7 +206,7 @@ pub struct Quantity {
     pub bound: Option<Vec<f64>>,
     /// Added field. Y axis scale of this quantity's charts; `None` chooses:
     /// logarithmic when every value is >= 0 and the positive ones span at
-    /// least two decades (typical of relative errors), linear otherwise.
+    /// least a decade (typical of relative errors), linear otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub scale: Option<Scale>,
 }
