@@ -1,1 +1,126 @@
-//! placeholder
+//! Self-contained HTML reports of frameid studies.
+//!
+//! [`render`] turns a [`Report`] (see [`model`]) into one HTML file that an
+//! engineer opens offline and prints: inline CSS, inline SVG charts drawn
+//! with plotters' SVG backend, no script and nothing fetched. Per study it
+//! shows the set-up, one representative campaign (force and acceleration
+//! records, Hankel singular values, stabilization diagram, mode shapes,
+//! FRFs), identified values against the truth with relative errors, and the
+//! accuracy against noise from the Monte Carlo sweep.
+//!
+//! The rendering is deterministic: the same report gives the same bytes.
+//! Non-finite values are skipped (and counted in the chart captions); values
+//! a log axis cannot show are drawn at its bottom (and counted). Only input
+//! whose parts cannot be matched up (e.g. a median vector whose length
+//! differs from the number of noise levels) is refused with
+//! [`ReportError::Inconsistent`].
+//!
+//! # Document structure
+//! Stable hooks for tests and for anyone post-processing the file:
+//! - `article.study#study-<i>` per study (1-based), `data-study` = name;
+//!   inside, `section.setup`, `section.representative`,
+//!   `section.comparison`, `section.accuracy` with ids
+//!   `study-<i>-setup`, `study-<i>-representative`, ...
+//! - every chart is a `figure.chart[data-chart]` holding exactly one
+//!   `svg.chart[data-chart]` with a `<title>`; `data-chart` is one of
+//!   `force`, `acceleration` (`data-floor`), `hankel`, `stabilization`,
+//!   `mode-magnitude`, `mode-phase` (`data-mode`), `frf-magnitude`,
+//!   `frf-phase` (`data-output`), `quantity` (`data-quantity` = key,
+//!   `data-panel`), `damping-comparison`, `failure-rate` (`data-panel`);
+//! - inside an SVG: `g.chart-title`, `g.axes` (grid, ticks, tick labels),
+//!   `g.axis-label[data-axis=x|y]`, one
+//!   `g.series[data-series][data-role=line|markers|band|rule][data-points]`
+//!   per layer (markers: one element per point; lines: `polyline`s, broken
+//!   at gaps; `data-points` = data points drawn), `g.legend` with one
+//!   `g.legend-entry[data-series]` per series when there are several;
+//! - series keys: `force`, `acceleration`; `retained`, `discarded`, rule
+//!   `order` (Hankel); `new`, `frequency`, `damping`, `stable`, rules
+//!   `mode-<k>` and `order` (stabilization); `identified`, `truth` (modes);
+//!   `measured`, `identified`, `truth` (FRF); `band`, `median`, `bound`
+//!   (quantity); `mkr-…` and `rayleigh-…` versions of those (damping
+//!   comparison); `failure-rate`;
+//! - tables: `table.setup`, `table.comparison[data-table]` whose error cells
+//!   carry `data-rel-error` (full precision, or `none`), `table.failures`
+//!   (`data-panel`), `table.efficiency`.
+
+mod chart;
+mod error;
+mod figures;
+mod format;
+mod html;
+pub mod model;
+mod validate;
+
+use std::fs;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+pub use error::ReportError;
+pub use model::{
+    Accuracy, ComparisonRow, ComparisonTable, EfficiencyRow, FailureCount, Frf, ModeShape, Panel,
+    Quantity, Report, Representative, Scale, SetupRow, Stability, StabilizationPoint, Study,
+};
+
+/// Renders the report as one self-contained HTML document.
+pub fn render(report: &Report) -> Result<String, ReportError> {
+    validate::validate(report)?;
+    html::render(report)
+}
+
+/// Renders the report and writes it to `path` atomically: the document is
+/// written to a temporary file in the same directory, flushed, then renamed
+/// over `path`. On any error `path` is left as it was and the temporary file
+/// is removed.
+pub fn render_to_file(report: &Report, path: impl AsRef<Path>) -> Result<(), ReportError> {
+    let path = path.as_ref();
+    let html = render(report)?;
+    write_atomic(path, html.as_bytes()).map_err(|source| ReportError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    let name = path.file_name().ok_or_else(|| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "the path does not name a file",
+        )
+    })?;
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let (tmp, mut file) = create_temp(&dir, &name.to_string_lossy())?;
+    let result = file
+        .write_all(bytes)
+        .and_then(|()| file.sync_all())
+        .and_then(|()| {
+            drop(file);
+            fs::rename(&tmp, path)
+        });
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Creates a new, uniquely named temporary file next to the target.
+fn create_temp(dir: &Path, name: &str) -> std::io::Result<(PathBuf, fs::File)> {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let pid = std::process::id();
+    loop {
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let tmp = dir.join(format!(".{name}.{pid}.{n}.tmp"));
+        match fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
+        {
+            Ok(f) => return Ok((tmp, f)),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && n < 1_000_000 => continue,
+            Err(e) => return Err(e),
+        }
+    }
+}
