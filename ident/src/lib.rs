@@ -66,6 +66,7 @@
 //! assert!((result.mass[(0, 0)] - 0.2913).abs() < 1e-3);
 //! ```
 
+pub mod era;
 pub mod linalg;
 pub mod okid;
 pub mod record;
@@ -73,6 +74,7 @@ pub mod statespace;
 
 #[cfg(test)]
 mod testutil;
+pub use era::{Correlation, Era, EraError, EraParams, ModelOrder};
 pub use okid::{ObserverOrder, Okid, OkidError, OkidParams};
 
 pub use record::{Channel, DataError, Record};
