@@ -68,14 +68,20 @@
 
 pub mod era;
 pub mod linalg;
+pub mod mkr;
+pub mod modal;
 pub mod okid;
+pub mod rayleigh;
 pub mod record;
 pub mod statespace;
 
 #[cfg(test)]
 mod testutil;
 pub use era::{Correlation, Era, EraError, EraParams, ModelOrder};
+pub use mkr::{CollocatedPair, Mkr, MkrError, MkrParams, PolarityPolicy};
+pub use modal::{Indicators, Intersample, ModalModel, ModalParams, Mode, StructuralRule};
 pub use okid::{ObserverOrder, Okid, OkidError, OkidParams};
 
+pub use rayleigh::{Rayleigh, RayleighError};
 pub use record::{Channel, DataError, Record};
 pub use statespace::StateSpace;
