@@ -41,7 +41,7 @@
 //! # Example
 //!
 //! ```
-//! use ident::{Identifier, Intersample, StateSpace};
+//! use ident::{Identifier, Intersample};
 //! use nalgebra::DMatrix;
 //!
 //! // The realization printed in the paper (case 1, eq. 31-34), dt = 1/64 s.
@@ -57,10 +57,9 @@
 //!     26.5700, 3.2700, -7.2966, 2.2001,
 //! ]);
 //! let d = DMatrix::from_column_slice(2, 1, &[3.6387, 0.0739]);
-//! let realization = StateSpace::new(a, b, c, d, 1.0 / 64.0);
 //! let result = Identifier::default()
 //!     .intersample(Intersample::Zoh)
-//!     .from_realization(&realization)
+//!     .from_realization(1.0 / 64.0, a, b, c, d)
 //!     .unwrap();
 //! assert!((result.frequencies_hz[0] - 2.7314).abs() < 1e-3);
 //! assert!((result.mass[(0, 0)] - 0.2913).abs() < 1e-3);
@@ -71,6 +70,7 @@ pub mod linalg;
 pub mod mkr;
 pub mod modal;
 pub mod okid;
+pub mod pipeline;
 pub mod rayleigh;
 pub mod record;
 pub mod statespace;
@@ -82,6 +82,7 @@ pub use mkr::{CollocatedPair, Mkr, MkrError, MkrParams, PolarityPolicy};
 pub use modal::{Indicators, Intersample, ModalModel, ModalParams, Mode, StructuralRule};
 pub use okid::{ObserverOrder, Okid, OkidError, OkidParams};
 
+pub use pipeline::{Error, Identification, Identifier, ValidIdentifier, Warning};
 pub use rayleigh::{Rayleigh, RayleighError};
 pub use record::{Channel, DataError, Record};
 pub use statespace::StateSpace;
