@@ -332,15 +332,30 @@ impl Decomposition {
         self.factored.s.len().min(self.hankel_singular_values.len()) - 1
     }
 
-    /// `ln s_n - ln s_(n+1)` of the Hankel singular values for `n = 2, 4, ...` up to
-    /// `max` (index `n/2 - 1`). Singular values are floored at `1e-300 s_1`.
+    /// Numerical rank: the number of singular values above `eps * max(rows, cols) * s_1`,
+    /// the smaller of the counts for `H(0)` and for the factored matrix.
+    pub fn rank(&self) -> usize {
+        let tol = f64::EPSILON * self.factored.u.nrows().max(self.factored.v.nrows()) as f64;
+        let h_tol = f64::EPSILON * self.h0.nrows().max(self.h0.ncols()) as f64;
+        let s = &self.hankel_singular_values;
+        let h_rank = match s.get(0) {
+            Some(&s0) if s0 > 0.0 => s.iter().filter(|&&x| x > h_tol * s0).count(),
+            _ => 0,
+        };
+        h_rank.min(self.factored.rank(tol))
+    }
+
+    /// `ln s_n - ln s_(n+1)` of the Hankel singular values for `n = 2, 4, ...` up to the
+    /// smallest of `max`, [`Decomposition::max_order`] and [`Decomposition::rank`] (index
+    /// `n/2 - 1`). The gap between the last significant singular value and round-off counts.
     pub fn gaps(&self, max: usize) -> Vec<f64> {
         let s = &self.hankel_singular_values;
         let floor = s.get(0).copied().unwrap_or(0.0) * 1e-300;
         let ln = |i: usize| s[i].max(floor).max(f64::MIN_POSITIVE).ln();
+        let limit = max.min(self.max_order()).min(self.rank());
         (1..)
             .map(|h| 2 * h)
-            .take_while(|&n| n <= max.min(self.max_order()))
+            .take_while(|&n| n <= limit)
             .map(|n| ln(n - 1) - ln(n))
             .collect()
     }
@@ -360,8 +375,7 @@ impl Decomposition {
             return Err(EraError::OrderTooLarge { order: n, max });
         }
         let svd = &self.factored;
-        // Numerical rank, LAPACK style: singular values above eps * max(dim) * s_1.
-        let rank = svd.rank(f64::EPSILON * svd.u.nrows().max(svd.v.nrows()) as f64);
+        let rank = self.rank();
         if rank < n {
             return Err(EraError::RankDeficient { order: n, rank });
         }

@@ -23,8 +23,9 @@
 //! | ERA Markov offset `k0` | 0 | 10 |
 //!
 //! Both: observer order automatic up to 20 (BIC), ERA/DC with `xi = zeta = 2`, Hankel size
-//! from the data ([`crate::era`]), model order automatic up to 20 (largest singular-value
-//! gap, moved to the next candidates if it shows fewer structural modes than DOFs),
+//! from the data ([`crate::era`]), model order automatic up to 20 and at most `p_max m` (the
+//! observer's state count; largest singular-value gap, moved to the next candidates if it
+//! shows fewer structural modes than DOFs),
 //! collocated pair output 0 / input 0, polarity flipped with a warning.
 //! `Bandlimited` is the default intersample assumption because analyzer records are
 //! band-limited; use `Zoh` for held inputs (simulations that hold the force per sample,
@@ -289,7 +290,25 @@ impl ValidIdentifier {
         let (m, r) = (shape.outputs, shape.inputs);
         self.check_dofs(m)?;
         self.mkr.check(m, r)?;
-        let hankel = self.era.shape(m, r, shape.longest).map_err(|e| match e {
+        // The Markov parameters come from an observer with at most p m states, so no
+        // realization of higher order is identifiable.
+        let state_limit = self.okid.max_order() * m;
+        let era_base = match self.era.order {
+            ModelOrder::Fixed(n) if n > state_limit => {
+                return Err(Error::Era(EraError::OrderTooLarge {
+                    order: n,
+                    max: state_limit,
+                }));
+            }
+            ModelOrder::Auto { max } => EraParams {
+                order: ModelOrder::Auto {
+                    max: max.min(state_limit).max(2),
+                },
+                ..self.era
+            },
+            ModelOrder::Fixed(_) => self.era,
+        };
+        let hankel = era_base.shape(m, r, shape.longest).map_err(|e| match e {
             EraError::TooFewMarkov { required, .. } => Error::Data(DataError::TooShort {
                 record: shape.longest_record,
                 samples: shape.longest,
@@ -315,10 +334,10 @@ impl ValidIdentifier {
         let era_params = EraParams {
             block_rows: Some(hankel.block_rows),
             block_cols: Some(hankel.block_cols),
-            ..self.era
+            ..era_base
         };
         let dec = era_params.decompose(&okid.markov, dt_s)?;
-        let candidates = match self.era.order {
+        let candidates = match era_params.order {
             ModelOrder::Fixed(n) => vec![n],
             ModelOrder::Auto { max } => dec.orders_by_gap(max),
         };
