@@ -1,0 +1,455 @@
+//! Eigensystem realization algorithm (ERA) and ERA with data correlations (ERA/DC).
+//!
+//! The block Hankel matrix of the Markov parameters, started at an offset `k0`, is
+//!
+//! ```text
+//! H(k) = [ Y_{k0+1+k}        Y_{k0+2+k}  ...  Y_{k0+beta+k}
+//!          ...
+//!          Y_{k0+alpha+k}    ...              Y_{k0+alpha+beta-1+k} ]      (alpha m x beta r)
+//! ```
+//!
+//! Plain ERA factors `H(0) = U S V^T`. ERA/DC (Juang, Cooper and Wright 1988) factors the
+//! block Hankel matrix of the correlations `R(k) = H(k) H(0)^T`,
+//!
+//! ```text
+//! Hc(k) = [ R(k)        R(k+1)  ...  R(k+zeta)
+//!           ...
+//!           R(k+xi)     ...          R(k+xi+zeta) ]                         ((xi+1) alpha m square-ish)
+//! ```
+//!
+//! which averages the data over the `beta` columns and shrinks the problem. With the order-n
+//! truncation `U_n S_n V_n^T`, `A = S_n^(-1/2) U_n^T Hc(1) V_n S_n^(-1/2)`, the observability
+//! matrix `O = U_n S_n^(1/2)` (first `alpha m` rows), `C` its first `m` rows, and the
+//! controllability matrix at the offset `A^k0 [B, AB, ...] = O^+ H(0)`; then
+//! `B = A^(-k0)` times its first block column, and `D = Y_0`.
+//!
+//! Starting at an offset skips the first Markov parameters, which for band-limited records
+//! carry the analyzer filter's transient and are not those of a finite-order system.
+//!
+//! # Default Hankel size
+//!
+//! With `n_ref = max(order or maximum order, 10)`: `alpha = ceil(max(4 n_ref, 40) / m)` block
+//! rows (at least 40 and four times the order in rows), `beta = ceil(3 alpha m / r)` block
+//! columns (three times as many columns as rows, so ERA/DC averages over many lags), and, if
+//! the data do not support that many Markov parameters (the longest record), `beta` shrinks to
+//! fit, down to `n_ref / r + 1`.
+
+use crate::linalg::{self, LinalgError, ThinSvd};
+use crate::statespace::StateSpace;
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+#[cfg(test)]
+mod tests;
+
+/// Which matrix is factored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Correlation {
+    /// Plain ERA: factor `H(0)`.
+    None,
+    /// ERA/DC: factor the block Hankel matrix of `R(k) = H(k) H(0)^T` with `xi + 1` block
+    /// rows and `zeta + 1` block columns.
+    Dc { xi: usize, zeta: usize },
+}
+
+/// Model order (state dimension) of the realization.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ModelOrder {
+    /// Use this order.
+    Fixed(usize),
+    /// Largest gap `ln s_n - ln s_(n+1)` of the Hankel singular values of `H(0)` over the
+    /// even orders `n = 2, 4, ..., max`.
+    Auto { max: usize },
+}
+
+impl ModelOrder {
+    /// The fixed order or the maximum order.
+    pub fn max_order(&self) -> usize {
+        match *self {
+            ModelOrder::Fixed(n) => n,
+            ModelOrder::Auto { max } => max,
+        }
+    }
+}
+
+/// ERA parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct EraParams {
+    /// Block rows `alpha` of the Hankel matrix (`None`: default from the data, see module docs).
+    pub block_rows: Option<usize>,
+    /// Block columns `beta` of the Hankel matrix (`None`: default from the data).
+    pub block_cols: Option<usize>,
+    /// ERA or ERA/DC.
+    pub correlation: Correlation,
+    /// Markov offset `k0`: the Hankel matrix starts at `Y_{k0+1}`.
+    pub offset: usize,
+    /// Model order.
+    pub order: ModelOrder,
+}
+
+impl Default for EraParams {
+    fn default() -> Self {
+        Self {
+            block_rows: None,
+            block_cols: None,
+            correlation: Correlation::Dc { xi: 2, zeta: 2 },
+            offset: 0,
+            order: ModelOrder::Auto { max: 20 },
+        }
+    }
+}
+
+/// Resolved Hankel dimensions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct HankelShape {
+    /// Block rows `alpha`.
+    pub block_rows: usize,
+    /// Block columns `beta`.
+    pub block_cols: usize,
+    /// ERA/DC correlation block rows minus one (0 for plain ERA).
+    pub xi: usize,
+    /// ERA/DC correlation block columns minus one (0 for plain ERA).
+    pub zeta: usize,
+    /// Markov offset `k0`.
+    pub offset: usize,
+    /// Whether the correlation (ERA/DC) form is used.
+    pub correlated: bool,
+}
+
+impl HankelShape {
+    /// Number of Markov parameters `Y_0 ..` the realization uses.
+    pub fn markov_needed(&self) -> usize {
+        self.offset + self.block_rows + self.block_cols + self.xi + self.zeta + 1
+    }
+
+    /// Number of Markov terms spanned by `H(0)` (used by the modal singular value).
+    pub fn span(&self) -> usize {
+        self.block_rows + self.block_cols - 1
+    }
+}
+
+/// Ways ERA can fail.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EraError {
+    /// Parameters out of range.
+    #[error("invalid ERA parameters: {reason}")]
+    InvalidParams { reason: String },
+    /// Not enough Markov parameters (or data) for the Hankel matrices.
+    #[error("ERA needs {required} Markov parameters, {available} are available")]
+    TooFewMarkov { available: usize, required: usize },
+    /// The requested order exceeds what the Hankel matrix can reveal.
+    #[error("order {order} exceeds the largest order {max} the Hankel matrix supports")]
+    OrderTooLarge { order: usize, max: usize },
+    /// The Hankel matrix has fewer nonzero singular values than the order.
+    #[error("Hankel matrix has rank {rank}, below the order {order}")]
+    RankDeficient { order: usize, rank: usize },
+    /// `A` is singular, so `B` cannot be recovered at a nonzero Markov offset.
+    #[error("the identified A is singular; B cannot be recovered at Markov offset {offset}")]
+    SingularStateMatrix { offset: usize },
+    /// A decomposition failed.
+    #[error(transparent)]
+    Linalg(#[from] LinalgError),
+}
+
+impl EraParams {
+    /// Sets the model order.
+    pub fn order(mut self, order: ModelOrder) -> Self {
+        self.order = order;
+        self
+    }
+
+    /// Sets the Markov offset.
+    pub fn offset(mut self, offset: usize) -> Self {
+        self.offset = offset;
+        self
+    }
+
+    /// Sets ERA or ERA/DC.
+    pub fn correlation(mut self, correlation: Correlation) -> Self {
+        self.correlation = correlation;
+        self
+    }
+
+    /// Sets the Hankel block rows and columns.
+    pub fn blocks(mut self, block_rows: usize, block_cols: usize) -> Self {
+        self.block_rows = Some(block_rows);
+        self.block_cols = Some(block_cols);
+        self
+    }
+
+    /// Validates the parameters.
+    pub fn check(&self) -> Result<(), EraError> {
+        let bad = |reason: String| Err(EraError::InvalidParams { reason });
+        match self.order {
+            ModelOrder::Fixed(0) => return bad("model order must be at least 1".into()),
+            ModelOrder::Auto { max } if max < 2 => {
+                return bad("maximum model order must be at least 2".into());
+            }
+            _ => {}
+        }
+        if self.block_rows == Some(0) || self.block_cols == Some(0) {
+            return bad("Hankel block rows and columns must be at least 1".into());
+        }
+        Ok(())
+    }
+
+    /// Resolves the Hankel dimensions for `m` outputs, `r` inputs and `available` Markov
+    /// parameters (for records: the length of the longest record).
+    pub fn shape(&self, m: usize, r: usize, available: usize) -> Result<HankelShape, EraError> {
+        self.check()?;
+        assert!(m > 0 && r > 0, "EraParams::shape: m and r must be positive");
+        let n_ref = self.order.max_order().max(10);
+        let (xi, zeta, correlated) = match self.correlation {
+            Correlation::None => (0, 0, false),
+            Correlation::Dc { xi, zeta } => (xi, zeta, true),
+        };
+        let alpha = self
+            .block_rows
+            .unwrap_or_else(|| (4 * n_ref).max(40).div_ceil(m));
+        let fixed = self.offset + alpha + xi + zeta + 1;
+        let beta = match self.block_cols {
+            Some(beta) => beta,
+            None => {
+                let wanted = (3 * alpha * m).div_ceil(r);
+                let fits = available.saturating_sub(fixed);
+                let least = n_ref / r + 1;
+                wanted.min(fits).max(least)
+            }
+        };
+        let shape = HankelShape {
+            block_rows: alpha,
+            block_cols: beta,
+            xi,
+            zeta,
+            offset: self.offset,
+            correlated,
+        };
+        if shape.markov_needed() > available {
+            return Err(EraError::TooFewMarkov {
+                available,
+                required: shape.markov_needed(),
+            });
+        }
+        Ok(shape)
+    }
+
+    /// Factors the Hankel matrices of `markov` (`Y_0 = D, Y_1, ...`), without choosing the
+    /// order yet.
+    pub fn decompose(&self, markov: &[DMatrix<f64>], dt_s: f64) -> Result<Decomposition, EraError> {
+        let y0 = markov.first().ok_or(EraError::TooFewMarkov {
+            available: 0,
+            required: 1,
+        })?;
+        let (m, r) = y0.shape();
+        let shape = self.shape(m, r, markov.len())?;
+        let hankel = |k: usize| -> DMatrix<f64> {
+            let (alpha, beta) = (shape.block_rows, shape.block_cols);
+            let mut h = DMatrix::zeros(alpha * m, beta * r);
+            for i in 0..alpha {
+                for j in 0..beta {
+                    let y = &markov[shape.offset + 1 + k + i + j];
+                    assert_eq!(y.shape(), (m, r), "Markov parameters must all be m x r");
+                    h.view_mut((i * m, j * r), (m, r)).copy_from(y);
+                }
+            }
+            h
+        };
+        let h0 = hankel(0);
+        let hankel_svd = linalg::thin_svd(&h0)?;
+        let (factored_svd, shifted) = if shape.correlated {
+            let (xi, zeta) = (shape.xi, shape.zeta);
+            let h0t = h0.transpose();
+            let corr: Vec<DMatrix<f64>> = (0..=xi + zeta + 1)
+                .map(|k| if k == 0 { &h0 * &h0t } else { hankel(k) * &h0t })
+                .collect();
+            let block = |k: usize| -> DMatrix<f64> {
+                let s = corr[0].nrows();
+                let mut out = DMatrix::zeros((xi + 1) * s, (zeta + 1) * s);
+                for i in 0..=xi {
+                    for j in 0..=zeta {
+                        out.view_mut((i * s, j * s), (s, s))
+                            .copy_from(&corr[k + i + j]);
+                    }
+                }
+                out
+            };
+            let big0 = block(0);
+            (linalg::thin_svd(&big0)?, block(1))
+        } else {
+            (hankel_svd.clone(), hankel(1))
+        };
+        Ok(Decomposition {
+            shape,
+            dt_s,
+            outputs: m,
+            inputs: r,
+            d: y0.clone(),
+            h0,
+            hankel_singular_values: hankel_svd.s,
+            factored: factored_svd,
+            shifted,
+        })
+    }
+
+    /// Realization of the chosen order (see [`ModelOrder`]).
+    pub fn fit(&self, markov: &[DMatrix<f64>], dt_s: f64) -> Result<Era, EraError> {
+        let dec = self.decompose(markov, dt_s)?;
+        let n = match self.order {
+            ModelOrder::Fixed(n) => n,
+            ModelOrder::Auto { max } => {
+                dec.orders_by_gap(max)
+                    .first()
+                    .copied()
+                    .ok_or(EraError::OrderTooLarge {
+                        order: 2,
+                        max: dec.max_order(),
+                    })?
+            }
+        };
+        dec.realize(n)
+    }
+}
+
+/// Factored Hankel matrices, from which realizations of any order can be cut.
+#[derive(Debug, Clone)]
+pub struct Decomposition {
+    /// Hankel dimensions used.
+    pub shape: HankelShape,
+    dt_s: f64,
+    outputs: usize,
+    inputs: usize,
+    d: DMatrix<f64>,
+    h0: DMatrix<f64>,
+    /// Singular values of `H(0)`, descending.
+    pub hankel_singular_values: DVector<f64>,
+    factored: ThinSvd,
+    shifted: DMatrix<f64>,
+}
+
+impl Decomposition {
+    /// Largest order the factored matrix supports.
+    pub fn max_order(&self) -> usize {
+        self.factored.s.len().min(self.hankel_singular_values.len()) - 1
+    }
+
+    /// Numerical rank: the number of singular values above `eps * max(rows, cols) * s_1`,
+    /// the smaller of the counts for `H(0)` and for the factored matrix.
+    pub fn rank(&self) -> usize {
+        let tol = f64::EPSILON * self.factored.u.nrows().max(self.factored.v.nrows()) as f64;
+        let h_tol = f64::EPSILON * self.h0.nrows().max(self.h0.ncols()) as f64;
+        let s = &self.hankel_singular_values;
+        let h_rank = match s.get(0) {
+            Some(&s0) if s0 > 0.0 => s.iter().filter(|&&x| x > h_tol * s0).count(),
+            _ => 0,
+        };
+        h_rank.min(self.factored.rank(tol))
+    }
+
+    /// `ln s_n - ln s_(n+1)` of the Hankel singular values for `n = 2, 4, ...` up to the
+    /// smallest of `max`, [`Decomposition::max_order`] and [`Decomposition::rank`] (index
+    /// `n/2 - 1`). The gap between the last significant singular value and round-off counts.
+    pub fn gaps(&self, max: usize) -> Vec<f64> {
+        let s = &self.hankel_singular_values;
+        let floor = s.get(0).copied().unwrap_or(0.0) * 1e-300;
+        let ln = |i: usize| s[i].max(floor).max(f64::MIN_POSITIVE).ln();
+        let limit = max.min(self.max_order()).min(self.rank());
+        (1..)
+            .map(|h| 2 * h)
+            .take_while(|&n| n <= limit)
+            .map(|n| ln(n - 1) - ln(n))
+            .collect()
+    }
+
+    /// Even orders up to `max`, by decreasing singular value gap.
+    pub fn orders_by_gap(&self, max: usize) -> Vec<usize> {
+        let gaps = self.gaps(max);
+        let mut orders: Vec<usize> = (1..=gaps.len()).map(|h| 2 * h).collect();
+        orders.sort_by(|a, b| gaps[b / 2 - 1].total_cmp(&gaps[a / 2 - 1]));
+        orders
+    }
+
+    /// Realization of order `n`.
+    pub fn realize(&self, n: usize) -> Result<Era, EraError> {
+        let max = self.max_order();
+        if n == 0 || n > max {
+            return Err(EraError::OrderTooLarge { order: n, max });
+        }
+        let svd = &self.factored;
+        let rank = self.rank();
+        if rank < n {
+            return Err(EraError::RankDeficient { order: n, rank });
+        }
+        let (m, r) = (self.outputs, self.inputs);
+        let shape = self.shape;
+        let un = svd.u.columns(0, n);
+        let vn = svd.v.columns(0, n);
+        let sqrt_s = svd.s.rows(0, n).map(|x| x.sqrt());
+        let inv_sqrt = sqrt_s.map(|x| 1.0 / x);
+        let a = DMatrix::from_diagonal(&inv_sqrt)
+            * un.transpose()
+            * &self.shifted
+            * vn
+            * DMatrix::from_diagonal(&inv_sqrt);
+        let p = un * DMatrix::from_diagonal(&sqrt_s);
+        let alpha_rows = shape.block_rows * m;
+        let observability = p.rows(0, alpha_rows).into_owned();
+        let c = p.rows(0, m).into_owned();
+        let controllability = if shape.correlated {
+            let osvd = linalg::thin_svd(&observability)?;
+            let (q, kept) = linalg::lstsq_truncated(&osvd, &self.h0, 1e-13);
+            if kept < n {
+                return Err(EraError::RankDeficient {
+                    order: n,
+                    rank: kept,
+                });
+            }
+            q
+        } else {
+            DMatrix::from_diagonal(&sqrt_s) * svd.v.columns(0, n).transpose()
+        };
+        let mut b = controllability.columns(0, r).into_owned();
+        if shape.offset > 0 {
+            let lu = a.clone().lu();
+            for _ in 0..shape.offset {
+                b = lu.solve(&b).ok_or(EraError::SingularStateMatrix {
+                    offset: shape.offset,
+                })?;
+            }
+            if linalg::first_non_finite(&b).is_some() {
+                return Err(EraError::SingularStateMatrix {
+                    offset: shape.offset,
+                });
+            }
+        }
+        Ok(Era {
+            realization: StateSpace::new(a, b, c, self.d.clone(), self.dt_s),
+            order: n,
+            shape,
+            hankel_singular_values: self.hankel_singular_values.clone(),
+            singular_values: svd.s.clone(),
+            observability,
+            controllability,
+        })
+    }
+}
+
+/// Result of ERA or ERA/DC.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Era {
+    /// Discrete realization `A, B, C, D` (with `D = Y_0`).
+    pub realization: StateSpace,
+    /// Model order used.
+    pub order: usize,
+    /// Hankel dimensions used.
+    pub shape: HankelShape,
+    /// Singular values of `H(0)`, descending (the paper's Fig. 4).
+    pub hankel_singular_values: DVector<f64>,
+    /// Singular values of the factored matrix (`H(0)` for ERA, the correlation Hankel
+    /// matrix for ERA/DC).
+    pub singular_values: DVector<f64>,
+    /// Identified observability matrix `[C; C A; ...; C A^(alpha-1)]` (alpha m x n).
+    pub observability: DMatrix<f64>,
+    /// Identified controllability matrix at the offset, `A^k0 [B, A B, ..., A^(beta-1) B]`
+    /// (n x beta r).
+    pub controllability: DMatrix<f64>,
+}

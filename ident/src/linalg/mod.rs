@@ -1,0 +1,377 @@
+//! Dense linear algebra helpers that nalgebra 0.35 does not provide directly.
+//!
+//! * [`eig`] / [`eig_complex`]: general eigendecomposition of a non-symmetric square matrix
+//!   (complex Schur form, then eigenvectors of the triangular factor by back-substitution).
+//! * [`thin_svd`]: thin SVD with singular values in descending order.
+//! * [`cholesky`]: Cholesky factor that reports the failing pivot.
+//! * [`lstsq_truncated`]: least squares through an SVD with a relative truncation.
+
+use nalgebra::{DMatrix, DVector, SVD, Schur};
+use num_complex::Complex;
+
+/// Complex scalar used throughout the crate.
+pub type C64 = Complex<f64>;
+
+/// Numerical failures of the helpers in this module.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LinalgError {
+    /// An iterative decomposition did not converge within its iteration budget.
+    #[error("{algorithm} did not converge for a {rows} x {cols} matrix")]
+    NoConvergence {
+        algorithm: &'static str,
+        rows: usize,
+        cols: usize,
+    },
+    /// The matrix contains NaN or infinite entries.
+    #[error("{what} has a non-finite entry at ({row}, {col})")]
+    NonFinite {
+        what: &'static str,
+        row: usize,
+        col: usize,
+    },
+    /// A square matrix that must be inverted is singular to working precision.
+    #[error("{what} is singular to working precision")]
+    Singular { what: &'static str },
+}
+
+/// Eigenvalues and right eigenvectors: `A V = V diag(values)`.
+#[derive(Debug, Clone)]
+pub struct Eigen {
+    /// Eigenvalues, in no particular order.
+    pub values: DVector<C64>,
+    /// Eigenvectors by columns, each of unit 2-norm.
+    pub vectors: DMatrix<C64>,
+}
+
+/// Position of the first non-finite entry of `m`, if any.
+pub fn first_non_finite(m: &DMatrix<f64>) -> Option<(usize, usize)> {
+    for j in 0..m.ncols() {
+        for i in 0..m.nrows() {
+            if !m[(i, j)].is_finite() {
+                return Some((i, j));
+            }
+        }
+    }
+    None
+}
+
+fn ensure_finite(m: &DMatrix<f64>, what: &'static str) -> Result<(), LinalgError> {
+    match first_non_finite(m) {
+        Some((row, col)) => Err(LinalgError::NonFinite { what, row, col }),
+        None => Ok(()),
+    }
+}
+
+/// Iteration budget for the QR iterations of Schur and SVD (total, not per eigenvalue).
+fn iteration_budget(n: usize) -> usize {
+    200 * n.max(4)
+}
+
+/// Eigendecomposition of a real square matrix.
+///
+/// The matrix is balanced (Parlett-Reinsch), reduced to complex Schur form `Q T Q^H`, the
+/// eigenvectors of the upper triangular `T` are found by back-substitution and mapped back.
+/// Complex-conjugate eigenvalues are returned as separate entries.
+pub fn eig(a: &DMatrix<f64>) -> Result<Eigen, LinalgError> {
+    assert!(a.is_square(), "eig: matrix must be square");
+    ensure_finite(a, "matrix")?;
+    let mut balanced = a.clone();
+    let scale = if a.nrows() > 0 {
+        nalgebra::linalg::balancing::balance_parlett_reinsch(&mut balanced)
+    } else {
+        DVector::zeros(0)
+    };
+    let mut e = eig_complex(&balanced.map(|x| C64::new(x, 0.0)))?;
+    for j in 0..e.vectors.ncols() {
+        let mut col = e.vectors.column_mut(j);
+        for i in 0..col.nrows() {
+            col[i] *= scale[i];
+        }
+        let norm = col.norm();
+        if norm > 0.0 {
+            col.unscale_mut(norm);
+        }
+    }
+    Ok(e)
+}
+
+/// Eigendecomposition of a complex square matrix (complex Schur + back-substitution).
+pub fn eig_complex(a: &DMatrix<C64>) -> Result<Eigen, LinalgError> {
+    assert!(a.is_square(), "eig_complex: matrix must be square");
+    let n = a.nrows();
+    if n == 0 {
+        return Ok(Eigen {
+            values: DVector::zeros(0),
+            vectors: DMatrix::zeros(0, 0),
+        });
+    }
+    for j in 0..n {
+        for i in 0..n {
+            if !(a[(i, j)].re.is_finite() && a[(i, j)].im.is_finite()) {
+                return Err(LinalgError::NonFinite {
+                    what: "matrix",
+                    row: i,
+                    col: j,
+                });
+            }
+        }
+    }
+    let schur = Schur::try_new(a.clone(), f64::EPSILON, iteration_budget(n)).ok_or(
+        LinalgError::NoConvergence {
+            algorithm: "complex Schur decomposition",
+            rows: n,
+            cols: n,
+        },
+    )?;
+    let (mut q, mut t) = schur.unpack();
+    // nalgebra returns a triangular factor for complex input; this only guards against a
+    // 2x2 block left behind.
+    triangularize_leftover_blocks(&mut t, &mut q);
+    let values = DVector::from_fn(n, |i, _| t[(i, i)]);
+    let x = triangular_eigenvectors(&t);
+    let mut vectors = &q * &x;
+    for j in 0..n {
+        let mut col = vectors.column_mut(j);
+        let norm = col.norm();
+        if norm > 0.0 {
+            col.unscale_mut(norm);
+        }
+    }
+    Ok(Eigen { values, vectors })
+}
+
+/// Removes any nonzero subdiagonal entry of a complex Schur factor with a unitary 2x2
+/// rotation (eigenvector of the 2x2 block), updating `q` so that `A = Q T Q^H` still holds.
+fn triangularize_leftover_blocks(t: &mut DMatrix<C64>, q: &mut DMatrix<C64>) {
+    let n = t.nrows();
+    for i in 0..n.saturating_sub(1) {
+        if t[(i + 1, i)] == C64::new(0.0, 0.0) {
+            continue;
+        }
+        let (a, b, c, d) = (t[(i, i)], t[(i, i + 1)], t[(i + 1, i)], t[(i + 1, i + 1)]);
+        // Eigenvalue of the block and an eigenvector (x, y).
+        let half_tr = (a + d) * 0.5;
+        let disc = ((a - d) * 0.5).powi(2) + b * c;
+        let lambda = half_tr + disc.sqrt();
+        let (x, y) = if (lambda - a).norm() > (lambda - d).norm() {
+            (b, lambda - a)
+        } else {
+            (lambda - d, c)
+        };
+        let norm = (x.norm_sqr() + y.norm_sqr()).sqrt();
+        if norm == 0.0 {
+            t[(i + 1, i)] = C64::new(0.0, 0.0);
+            continue;
+        }
+        let (x, y) = (x / norm, y / norm);
+        // G = [x, -conj(y); y, conj(x)] is unitary with first column the eigenvector.
+        // T <- G^H T G, Q <- Q G.
+        for col in 0..n {
+            let (t0, t1) = (t[(i, col)], t[(i + 1, col)]);
+            t[(i, col)] = x.conj() * t0 + y.conj() * t1;
+            t[(i + 1, col)] = -y * t0 + x * t1;
+        }
+        for row in 0..n {
+            let (t0, t1) = (t[(row, i)], t[(row, i + 1)]);
+            t[(row, i)] = t0 * x + t1 * y;
+            t[(row, i + 1)] = -t0 * y.conj() + t1 * x.conj();
+        }
+        for row in 0..q.nrows() {
+            let (q0, q1) = (q[(row, i)], q[(row, i + 1)]);
+            q[(row, i)] = q0 * x + q1 * y;
+            q[(row, i + 1)] = -q0 * y.conj() + q1 * x.conj();
+        }
+        t[(i + 1, i)] = C64::new(0.0, 0.0);
+    }
+}
+
+/// Eigenvectors of an upper triangular matrix by back-substitution, one column per
+/// diagonal entry (unnormalized). Near-equal diagonal entries are separated by a
+/// perturbation of size `eps * ||T||`, as LAPACK's `ztrevc` does.
+fn triangular_eigenvectors(t: &DMatrix<C64>) -> DMatrix<C64> {
+    let n = t.nrows();
+    let smin = (f64::EPSILON * t.norm()).max(f64::MIN_POSITIVE);
+    let mut x = DMatrix::<C64>::zeros(n, n);
+    for k in 0..n {
+        let tkk = t[(k, k)];
+        x[(k, k)] = C64::new(1.0, 0.0);
+        for i in (0..k).rev() {
+            let mut s = C64::new(0.0, 0.0);
+            for j in i + 1..=k {
+                s += t[(i, j)] * x[(j, k)];
+            }
+            let mut d = t[(i, i)] - tkk;
+            if d.norm() < smin {
+                d = C64::new(smin, 0.0);
+            }
+            x[(i, k)] = -s / d;
+            // Rescale the partial vector to avoid overflow.
+            let big = x[(i, k)].norm();
+            if big > 1e100 {
+                for r in i..=k {
+                    x[(r, k)] /= big;
+                }
+            }
+        }
+    }
+    x
+}
+
+/// Eigenvalues of a real square matrix (real Schur form), cheaper than [`eig`].
+pub fn eigenvalues(a: &DMatrix<f64>) -> Result<DVector<C64>, LinalgError> {
+    assert!(a.is_square(), "eigenvalues: matrix must be square");
+    ensure_finite(a, "matrix")?;
+    let n = a.nrows();
+    if n == 0 {
+        return Ok(DVector::zeros(0));
+    }
+    let mut balanced = a.clone();
+    nalgebra::linalg::balancing::balance_parlett_reinsch(&mut balanced);
+    let schur = Schur::try_new(balanced, f64::EPSILON, iteration_budget(n)).ok_or(
+        LinalgError::NoConvergence {
+            algorithm: "real Schur decomposition",
+            rows: n,
+            cols: n,
+        },
+    )?;
+    Ok(schur.complex_eigenvalues())
+}
+
+/// Largest eigenvalue magnitude of a real square matrix (0 for an empty matrix).
+pub fn spectral_radius(a: &DMatrix<f64>) -> Result<f64, LinalgError> {
+    Ok(eigenvalues(a)?.iter().map(|l| l.norm()).fold(0.0, f64::max))
+}
+
+/// Thin singular value decomposition `M = U diag(s) V^T`, singular values descending.
+#[derive(Debug, Clone)]
+pub struct ThinSvd {
+    /// Left singular vectors, rows x k.
+    pub u: DMatrix<f64>,
+    /// Singular values, descending, length k = min(rows, cols).
+    pub s: DVector<f64>,
+    /// Right singular vectors, cols x k.
+    pub v: DMatrix<f64>,
+}
+
+impl ThinSvd {
+    /// Number of singular values above `rcond * s[0]` (0 for a zero matrix).
+    pub fn rank(&self, rcond: f64) -> usize {
+        match self.s.iter().next() {
+            Some(&s0) if s0 > 0.0 => self.s.iter().filter(|&&s| s > rcond * s0).count(),
+            _ => 0,
+        }
+    }
+}
+
+/// Thin SVD with singular values in descending order.
+pub fn thin_svd(m: &DMatrix<f64>) -> Result<ThinSvd, LinalgError> {
+    ensure_finite(m, "matrix")?;
+    let (rows, cols) = m.shape();
+    if rows == 0 || cols == 0 {
+        let k = rows.min(cols);
+        return Ok(ThinSvd {
+            u: DMatrix::zeros(rows, k),
+            s: DVector::zeros(k),
+            v: DMatrix::zeros(cols, k),
+        });
+    }
+    let svd = SVD::try_new(
+        m.clone(),
+        true,
+        true,
+        f64::EPSILON,
+        iteration_budget(rows.max(cols)) * 10,
+    )
+    .ok_or(LinalgError::NoConvergence {
+        algorithm: "singular value decomposition",
+        rows,
+        cols,
+    })?;
+    let u = svd.u.expect("U requested");
+    let v = svd.v_t.expect("V requested").transpose();
+    Ok(ThinSvd {
+        u,
+        s: svd.singular_values,
+        v,
+    })
+}
+
+/// Solution of `min ||A X - B||_F` keeping the singular values of `A` above `rcond * s_max`.
+/// Returns the solution and the number of singular values kept.
+pub fn lstsq_truncated(svd: &ThinSvd, b: &DMatrix<f64>, rcond: f64) -> (DMatrix<f64>, usize) {
+    assert_eq!(svd.u.nrows(), b.nrows(), "lstsq_truncated: row mismatch");
+    let k = svd.rank(rcond);
+    let u = svd.u.columns(0, k);
+    let v = svd.v.columns(0, k);
+    let mut coeff = u.transpose() * b;
+    for i in 0..k {
+        let inv = 1.0 / svd.s[i];
+        coeff.row_mut(i).scale_mut(inv);
+    }
+    (v * coeff, k)
+}
+
+/// Cholesky factor `L` (lower) of a symmetric matrix. On failure returns the index of the
+/// first non-positive pivot and its value (the Schur complement diagonal entry).
+pub fn cholesky(a: &DMatrix<f64>) -> Result<DMatrix<f64>, (usize, f64)> {
+    assert!(a.is_square(), "cholesky: matrix must be square");
+    let n = a.nrows();
+    let mut l = DMatrix::<f64>::zeros(n, n);
+    for j in 0..n {
+        let mut d = a[(j, j)];
+        for k in 0..j {
+            d -= l[(j, k)] * l[(j, k)];
+        }
+        if d.is_nan() || d <= 0.0 {
+            return Err((j, d));
+        }
+        let djj = d.sqrt();
+        l[(j, j)] = djj;
+        for i in j + 1..n {
+            let mut s = a[(i, j)];
+            for k in 0..j {
+                s -= l[(i, k)] * l[(j, k)];
+            }
+            l[(i, j)] = s / djj;
+        }
+    }
+    Ok(l)
+}
+
+/// Inverse of a real square matrix by LU with partial pivoting.
+pub fn inverse(a: &DMatrix<f64>, what: &'static str) -> Result<DMatrix<f64>, LinalgError> {
+    assert!(a.is_square(), "inverse: matrix must be square");
+    ensure_finite(a, what)?;
+    let inv = a
+        .clone()
+        .lu()
+        .try_inverse()
+        .ok_or(LinalgError::Singular { what })?;
+    if first_non_finite(&inv).is_some() {
+        return Err(LinalgError::Singular { what });
+    }
+    Ok(inv)
+}
+
+/// Inverse of a complex square matrix by LU with partial pivoting.
+pub fn inverse_complex(a: &DMatrix<C64>, what: &'static str) -> Result<DMatrix<C64>, LinalgError> {
+    assert!(a.is_square(), "inverse_complex: matrix must be square");
+    let inv = a
+        .clone()
+        .lu()
+        .try_inverse()
+        .ok_or(LinalgError::Singular { what })?;
+    if inv.iter().any(|z| !(z.re.is_finite() && z.im.is_finite())) {
+        return Err(LinalgError::Singular { what });
+    }
+    Ok(inv)
+}
+
+/// Relative Frobenius distance `||a - b|| / ||b||`.
+pub fn relative_error(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
+    assert_eq!(a.shape(), b.shape(), "relative_error: shape mismatch");
+    (a - b).norm() / b.norm()
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,591 @@
+//! Observer/Kalman filter identification (OKID) over several records jointly.
+//!
+//! # Model
+//!
+//! With `v[k] = [u[k]; y[k]]`, the observer (ARX) model with `q` input leads is
+//!
+//! ```text
+//! y[n] = sum_{j=1..q} a_{-j} u[n+j] + a_0 u[n] + sum_{i=1..p} ( a_i u[n-i] + b_i y[n-i] )
+//! ```
+//!
+//! written in the zero-initial-condition form: samples before the start of a record are
+//! zero, so every sample `n` of every record gives an equation (a hammer record is mostly
+//! free decay after a pulse a few samples in; dropping the first `p` equations would lose the
+//! pulse). An equation that needs an input sample after the end of a record (only with leads)
+//! is not formed. All records are stacked into one least-squares problem.
+//!
+//! The noncausal leads model band-limited records: the exact discrete relation for an
+//! anti-aliased and sampled signal pair is `y[n] = sum_k g[k] u[n-k]` with
+//! `g[k] = dt h_bl(k dt)`, the band-limited impulse response, which has small terms at
+//! negative `k` and whose `k = 0` term is not `D`. For held (zero-order-hold) records the
+//! discrete model is exact and causal, and `q = 0`.
+//!
+//! # Solution
+//!
+//! Each channel is scaled by its RMS over all records (so `rcond` does not depend on units).
+//! The tall regression matrix, with the regressors ordered by lag and the targets appended,
+//! is reduced by Householder QR record by record (never normal equations). One triangular
+//! factor then gives the residual of every nested observer order `p`, which the automatic
+//! order uses (BIC). The chosen order is solved by an SVD of its triangular block with the
+//! singular values below `rcond * s_max` discarded. If the autoregressive part (companion
+//! matrix of the `b_i`) has a spectral radius of 1 or more, `rcond` is raised tenfold and the
+//! problem re-solved, at most `max_rcond_raises` times.
+//!
+//! # Markov parameters
+//!
+//! The input-output Markov parameters follow from
+//! `g[k] = a_k + sum_{i=1..p} b_i g[k-i]` for `k >= -q`, with `g[k] = 0` before `-q`
+//! (this includes the `b_k g[0] = b_k D` terms). `Y_0 = g[0] = D` and `Y_k = g[k]`. The
+//! observer-gain Markov parameters `C A^(k-1) G` (for the observer
+//! `x[k+1] = (A + G C) x[k] + (B + G D) u[k] - G y[k]`, so `b_i = -C (A + G C)^(i-1) G`) follow
+//! from `h_k = -b_k + sum_{i=1..k-1} b_i h_{k-i}`; they are meaningful for `q = 0`.
+
+use crate::linalg::{self, LinalgError};
+use crate::record::{self, DataError, Record};
+use nalgebra::{DMatrix, QR};
+use serde::{Deserialize, Serialize};
+
+#[cfg(test)]
+mod tests;
+
+/// How the observer order `p` is chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ObserverOrder {
+    /// Use this order.
+    Fixed(usize),
+    /// Minimize the Bayesian information criterion over `p = 1..=max`. The residual sum of
+    /// squares is floored at `(1e-12)^2 ||Y||^2` (scaled data), so noise-free data stop at
+    /// the first order that fits them exactly.
+    Auto { max: usize },
+}
+
+/// OKID parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OkidParams {
+    /// Observer order.
+    pub order: ObserverOrder,
+    /// Number of noncausal input leads `q`.
+    pub leads: usize,
+    /// Relative singular value truncation of the least-squares solve.
+    pub rcond: f64,
+    /// How many times `rcond` may be raised tenfold to stabilize the observer.
+    pub max_rcond_raises: usize,
+    /// Number of system Markov parameters to return (`Y_0 .. Y_{markov_count-1}`).
+    pub markov_count: usize,
+}
+
+/// Floor of the relative residual norm used by the automatic order.
+pub const BIC_RELATIVE_FLOOR: f64 = 1e-12;
+
+impl Default for OkidParams {
+    fn default() -> Self {
+        Self::zoh()
+    }
+}
+
+impl OkidParams {
+    /// Defaults for held (zero-order-hold) records: no leads, `rcond = 1e-8` (exact
+    /// discrete data give a regression whose redundant directions sit at round-off level),
+    /// automatic order up to 20.
+    pub fn zoh() -> Self {
+        Self {
+            order: ObserverOrder::Auto { max: 20 },
+            leads: 0,
+            rcond: 1e-8,
+            max_rcond_raises: 4,
+            markov_count: 400,
+        }
+    }
+
+    /// Defaults for band-limited (analyzer) records: 8 leads, `rcond = 1e-4` (below the
+    /// -80..-100 dB stop band of analyzer anti-alias filters: noise-free band-limited data
+    /// leave the band above the filter edge unexcited), automatic order up to 20.
+    pub fn bandlimited() -> Self {
+        Self {
+            leads: 8,
+            rcond: 1e-4,
+            ..Self::zoh()
+        }
+    }
+
+    /// Sets the observer order.
+    pub fn order(mut self, order: ObserverOrder) -> Self {
+        self.order = order;
+        self
+    }
+
+    /// Sets the number of input leads.
+    pub fn leads(mut self, leads: usize) -> Self {
+        self.leads = leads;
+        self
+    }
+
+    /// Sets the relative truncation of the least-squares solve.
+    pub fn rcond(mut self, rcond: f64) -> Self {
+        self.rcond = rcond;
+        self
+    }
+
+    /// Sets the number of Markov parameters returned.
+    pub fn markov_count(mut self, count: usize) -> Self {
+        self.markov_count = count;
+        self
+    }
+
+    /// Largest observer order that may be used.
+    pub fn max_order(&self) -> usize {
+        match self.order {
+            ObserverOrder::Fixed(p) => p,
+            ObserverOrder::Auto { max } => max,
+        }
+    }
+
+    /// Validates the parameters.
+    pub fn check(&self) -> Result<(), OkidError> {
+        let bad = |reason: String| Err(OkidError::InvalidParams { reason });
+        match self.order {
+            ObserverOrder::Fixed(0) => return bad("observer order must be at least 1".into()),
+            ObserverOrder::Auto { max: 0 } => {
+                return bad("maximum observer order must be at least 1".into());
+            }
+            _ => {}
+        }
+        if !(self.rcond.is_finite() && self.rcond > 0.0 && self.rcond < 1.0) {
+            return bad(format!("rcond = {} must be in (0, 1)", self.rcond));
+        }
+        if self.markov_count < 2 {
+            return bad(format!(
+                "markov_count = {} must be at least 2",
+                self.markov_count
+            ));
+        }
+        Ok(())
+    }
+
+    /// Identifies the observer and system Markov parameters from `records`.
+    pub fn fit(&self, records: &[Record]) -> Result<Okid, OkidError> {
+        self.check()?;
+        let shape = record::validate(records)?;
+        let (r, m) = (shape.inputs, shape.outputs);
+        let q = self.leads;
+        let p_max = self.max_order();
+        let required = p_max + q + 1;
+        for (index, rec) in records.iter().enumerate() {
+            if rec.len() < required {
+                return Err(DataError::TooShort {
+                    record: index,
+                    samples: rec.len(),
+                    required,
+                    reason: "observer order plus leads plus one",
+                }
+                .into());
+            }
+        }
+        let layout = Layout { r, m, q, p: p_max };
+        let ncols = layout.columns(p_max);
+        let equations: usize = records.iter().map(|rec| rec.len() - q).sum();
+        if equations < ncols {
+            return Err(OkidError::Underdetermined {
+                equations,
+                unknowns: ncols,
+            });
+        }
+
+        let scales = Scales::new(records, r, m);
+        let rfac = triangular_factor(records, &layout, &scales)?;
+
+        // Residual sum of squares of every nested order from the one factor.
+        let y_block = rfac.columns(ncols, m);
+        let row_ss: Vec<f64> = (0..rfac.nrows())
+            .map(|i| y_block.row(i).norm_squared())
+            .collect();
+        let y_ss: f64 = row_ss.iter().sum();
+        let rss = |p: usize| -> f64 { row_ss.iter().skip(layout.columns(p)).sum() };
+
+        let (p, bic) = match self.order {
+            ObserverOrder::Fixed(p) => (p, Vec::new()),
+            ObserverOrder::Auto { max } => {
+                let n_obs = (equations * m) as f64;
+                let floor = BIC_RELATIVE_FLOOR * BIC_RELATIVE_FLOOR * y_ss;
+                let bic: Vec<f64> = (1..=max)
+                    .map(|p| {
+                        let rss = rss(p).max(floor).max(f64::MIN_POSITIVE);
+                        let params = (m * layout.columns(p)) as f64;
+                        n_obs * (rss / n_obs).ln() + params * n_obs.ln()
+                    })
+                    .collect();
+                let best = bic
+                    .iter()
+                    .enumerate()
+                    .min_by(|a, b| a.1.total_cmp(b.1))
+                    .map(|(i, _)| i + 1)
+                    .unwrap_or(1);
+                (best, bic)
+            }
+        };
+
+        let c = layout.columns(p);
+        let r11 = rfac.view((0, 0), (c, c)).into_owned();
+        let rhs = rfac.view((0, ncols), (c, m)).into_owned();
+        let svd = linalg::thin_svd(&r11)?;
+        let layout = Layout { p, ..layout };
+
+        let mut rcond = self.rcond;
+        let mut raises = Vec::new();
+        loop {
+            let (theta, rank) = linalg::lstsq_truncated(&svd, &rhs, rcond);
+            let coeffs = layout.coefficients(&theta, &scales);
+            let radius = linalg::spectral_radius(&companion(&coeffs.b, m))?;
+            if radius < 1.0 && radius.is_finite() {
+                let fit_ss = (&rhs - &r11 * &theta).norm_squared() + rss(p);
+                return Ok(self.finish(
+                    coeffs,
+                    FitInfo {
+                        p,
+                        rcond,
+                        raises,
+                        rank,
+                        unknowns: c,
+                        equations,
+                        spectral_radius: radius,
+                        bic,
+                        relative_residual: (fit_ss / y_ss).sqrt(),
+                    },
+                ));
+            }
+            if raises.len() >= self.max_rcond_raises || rcond * 10.0 >= 1.0 {
+                return Err(OkidError::UnstableObserver {
+                    spectral_radius: radius,
+                    rcond,
+                    observer_order: p,
+                });
+            }
+            raises.push(RcondRaise {
+                from: rcond,
+                to: rcond * 10.0,
+                spectral_radius: radius,
+            });
+            rcond *= 10.0;
+        }
+    }
+
+    fn finish(&self, coeffs: Coefficients, info: FitInfo) -> Okid {
+        let (lead_markov, markov) =
+            system_markov(&coeffs.a, &coeffs.b, self.leads, self.markov_count);
+        let observer_gain_markov = observer_gain_markov(&coeffs.b, self.markov_count - 1);
+        Okid {
+            observer_order: info.p,
+            leads: self.leads,
+            rcond: info.rcond,
+            rcond_raises: info.raises,
+            rank: info.rank,
+            unknowns: info.unknowns,
+            equations: info.equations,
+            spectral_radius: info.spectral_radius,
+            bic: info.bic,
+            relative_residual: info.relative_residual,
+            input_coefficients: coeffs.a,
+            output_coefficients: coeffs.b,
+            lead_markov,
+            markov,
+            observer_gain_markov,
+        }
+    }
+}
+
+/// System Markov parameters from observer coefficients: `g[k] = a_k + sum_i b_i g[k-i]`
+/// for `k = -leads ..`, `g` zero before `-leads`.
+///
+/// `input_coefficients[k + leads]` is `a_k` (`k = -leads ..= p`), `output_coefficients[i - 1]`
+/// is `b_i`. Returns the noncausal terms `g[-1] .. g[-leads]` and `Y_0 = g[0] .. Y_{count-1}`.
+pub fn system_markov(
+    input_coefficients: &[DMatrix<f64>],
+    output_coefficients: &[DMatrix<f64>],
+    leads: usize,
+    count: usize,
+) -> (Vec<DMatrix<f64>>, Vec<DMatrix<f64>>) {
+    let (m, r) = input_coefficients
+        .first()
+        .expect("system_markov: no input coefficients")
+        .shape();
+    let total = leads + count;
+    let mut g: Vec<DMatrix<f64>> = Vec::with_capacity(total);
+    for idx in 0..total {
+        // idx = k + leads
+        let mut acc = input_coefficients
+            .get(idx)
+            .cloned()
+            .unwrap_or_else(|| DMatrix::zeros(m, r));
+        for (i, b) in output_coefficients.iter().enumerate() {
+            let lag = i + 1;
+            if idx >= lag {
+                acc += b * &g[idx - lag];
+            }
+        }
+        g.push(acc);
+    }
+    let lead_markov = (1..=leads).map(|j| g[leads - j].clone()).collect();
+    let markov = g.split_off(leads);
+    (lead_markov, markov)
+}
+
+/// Observer-gain Markov parameters `h_k = C A^(k-1) G`, `k = 1 ..= count`, from the output
+/// coefficients `b_i = -C (A + G C)^(i-1) G`: `h_k = -b_k + sum_{i=1..k-1} b_i h_{k-i}`.
+pub fn observer_gain_markov(
+    output_coefficients: &[DMatrix<f64>],
+    count: usize,
+) -> Vec<DMatrix<f64>> {
+    let Some(m) = output_coefficients.first().map(|b| b.nrows()) else {
+        return Vec::new();
+    };
+    let mut h: Vec<DMatrix<f64>> = Vec::with_capacity(count);
+    for k in 1..=count {
+        let mut acc = match output_coefficients.get(k - 1) {
+            Some(b) => -b,
+            None => DMatrix::zeros(m, m),
+        };
+        for i in 1..k {
+            if let Some(b) = output_coefficients.get(i - 1) {
+                acc += b * &h[k - i - 1];
+            }
+        }
+        h.push(acc);
+    }
+    h
+}
+
+struct FitInfo {
+    p: usize,
+    rcond: f64,
+    raises: Vec<RcondRaise>,
+    rank: usize,
+    unknowns: usize,
+    equations: usize,
+    spectral_radius: f64,
+    bic: Vec<f64>,
+    relative_residual: f64,
+}
+
+/// One tenfold increase of `rcond` made to stabilize the observer.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct RcondRaise {
+    /// Truncation before the raise.
+    pub from: f64,
+    /// Truncation after the raise.
+    pub to: f64,
+    /// Spectral radius of the observer's autoregressive part that caused it.
+    pub spectral_radius: f64,
+}
+
+/// Result of OKID.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Okid {
+    /// Observer order `p` used.
+    pub observer_order: usize,
+    /// Number of input leads `q` used.
+    pub leads: usize,
+    /// Relative truncation finally used.
+    pub rcond: f64,
+    /// Raises of `rcond` made to stabilize the observer (empty if none).
+    pub rcond_raises: Vec<RcondRaise>,
+    /// Number of singular values kept in the least-squares solve.
+    pub rank: usize,
+    /// Number of regressors (unknowns per output).
+    pub unknowns: usize,
+    /// Number of equations (samples) in the stacked regression.
+    pub equations: usize,
+    /// Spectral radius of the observer's autoregressive part (< 1).
+    pub spectral_radius: f64,
+    /// BIC of each observer order `1..=max` for [`ObserverOrder::Auto`] (index `p - 1`).
+    pub bic: Vec<f64>,
+    /// Residual norm relative to the output norm (scaled channels).
+    pub relative_residual: f64,
+    /// Input coefficients `a_k`, `k = -q ..= p`, stored at index `k + q` (m x r each).
+    pub input_coefficients: Vec<DMatrix<f64>>,
+    /// Output coefficients `b_i`, `i = 1 ..= p`, stored at index `i - 1` (m x m each).
+    pub output_coefficients: Vec<DMatrix<f64>>,
+    /// Noncausal Markov parameters `g[-j]`, `j = 1 ..= q`, stored at index `j - 1`.
+    pub lead_markov: Vec<DMatrix<f64>>,
+    /// System Markov parameters `Y_0 = D, Y_1, ...` (m x r each).
+    pub markov: Vec<DMatrix<f64>>,
+    /// Observer-gain Markov parameters `C A^(k-1) G`, `k = 1, 2, ...`, at index `k - 1`
+    /// (m x m each).
+    pub observer_gain_markov: Vec<DMatrix<f64>>,
+}
+
+/// Ways OKID can fail.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum OkidError {
+    /// Parameters out of range.
+    #[error("invalid OKID parameters: {reason}")]
+    InvalidParams { reason: String },
+    /// The records are unusable.
+    #[error(transparent)]
+    Data(#[from] DataError),
+    /// Fewer equations than unknowns.
+    #[error("OKID regression has {equations} equations for {unknowns} unknowns")]
+    Underdetermined { equations: usize, unknowns: usize },
+    /// The observer stayed unstable after raising `rcond` as far as allowed.
+    #[error(
+        "OKID observer of order {observer_order} is unstable (spectral radius {spectral_radius:.6}) even with rcond = {rcond:e}"
+    )]
+    UnstableObserver {
+        spectral_radius: f64,
+        rcond: f64,
+        observer_order: usize,
+    },
+    /// A decomposition failed.
+    #[error(transparent)]
+    Linalg(#[from] LinalgError),
+}
+
+/// Column layout of the regression: leads `u[n+q] .. u[n+1]`, then `u[n]`, then
+/// `[u[n-i]; y[n-i]]` for `i = 1..=p`.
+#[derive(Debug, Clone, Copy)]
+struct Layout {
+    r: usize,
+    m: usize,
+    q: usize,
+    p: usize,
+}
+
+impl Layout {
+    /// Number of regressors for observer order `p`.
+    fn columns(&self, p: usize) -> usize {
+        (self.q + 1) * self.r + p * (self.r + self.m)
+    }
+
+    /// Splits the solution (regressors x m, scaled units) into coefficient matrices in
+    /// physical units.
+    fn coefficients(&self, theta: &DMatrix<f64>, s: &Scales) -> Coefficients {
+        let (r, m, q) = (self.r, self.m, self.q);
+        let input_block = |row0: usize| -> DMatrix<f64> {
+            DMatrix::from_fn(m, r, |o, ch| theta[(row0 + ch, o)] * s.y[o] / s.u[ch])
+        };
+        let mut a = Vec::with_capacity(q + 1 + self.p);
+        // Leads: column block t holds u[n + q - t], i.e. k = -(q - t).
+        for j in (1..=q).rev() {
+            // a_{-j} multiplies u[n + j], held in column block t = q - j.
+            a.push(input_block((q - j) * r));
+        }
+        a.push(input_block(q * r));
+        let mut b = Vec::with_capacity(self.p);
+        for i in 1..=self.p {
+            let base = (q + 1) * r + (i - 1) * (r + m);
+            a.push(input_block(base));
+            b.push(DMatrix::from_fn(m, m, |o, o2| {
+                theta[(base + r + o2, o)] * s.y[o] / s.y[o2]
+            }));
+        }
+        Coefficients { a, b }
+    }
+}
+
+/// Observer coefficients in physical units.
+struct Coefficients {
+    /// a_k at index k + q, k = -q ..= p.
+    a: Vec<DMatrix<f64>>,
+    /// b_i at index i - 1.
+    b: Vec<DMatrix<f64>>,
+}
+
+/// RMS of each channel over all records (1 for a channel that is zero everywhere).
+struct Scales {
+    u: Vec<f64>,
+    y: Vec<f64>,
+}
+
+impl Scales {
+    fn new(records: &[Record], r: usize, m: usize) -> Self {
+        let total: usize = records.iter().map(Record::len).sum();
+        let rms = |get: &dyn Fn(&Record) -> &DMatrix<f64>, ch: usize| -> f64 {
+            let ss: f64 = records
+                .iter()
+                .map(|rec| get(rec).row(ch).norm_squared())
+                .sum();
+            let v = (ss / total as f64).sqrt();
+            if v > 0.0 && v.is_finite() { v } else { 1.0 }
+        };
+        Self {
+            u: (0..r).map(|ch| rms(&|rec| &rec.inputs, ch)).collect(),
+            y: (0..m).map(|ch| rms(&|rec| &rec.outputs, ch)).collect(),
+        }
+    }
+}
+
+/// Maximum number of regression rows reduced per QR step.
+const ROWS_PER_BLOCK: usize = 4096;
+
+/// Triangular factor of the stacked regression `[X | Y]` over all records, accumulated
+/// block by block (`R <- qr([R; Z_block]).R`).
+fn triangular_factor(
+    records: &[Record],
+    layout: &Layout,
+    s: &Scales,
+) -> Result<DMatrix<f64>, LinalgError> {
+    let (r, m, q, p) = (layout.r, layout.m, layout.q, layout.p);
+    let ncols = layout.columns(p);
+    let width = ncols + m;
+    let mut rfac = DMatrix::<f64>::zeros(0, width);
+    for rec in records {
+        let rows = rec.len() - q;
+        let u = |ch: usize, n: usize| rec.inputs[(ch, n)] / s.u[ch];
+        let y = |ch: usize, n: usize| rec.outputs[(ch, n)] / s.y[ch];
+        let mut start = 0;
+        while start < rows {
+            let len = (rows - start).min(ROWS_PER_BLOCK);
+            let top = rfac.nrows();
+            let mut z = DMatrix::<f64>::zeros(top + len, width);
+            z.view_mut((0, 0), (top, width)).copy_from(&rfac);
+            for row in 0..len {
+                let n = start + row;
+                let zr = top + row;
+                for t in 0..q {
+                    for ch in 0..r {
+                        z[(zr, t * r + ch)] = u(ch, n + q - t);
+                    }
+                }
+                for ch in 0..r {
+                    z[(zr, q * r + ch)] = u(ch, n);
+                }
+                for i in 1..=p.min(n) {
+                    let base = (q + 1) * r + (i - 1) * (r + m);
+                    for ch in 0..r {
+                        z[(zr, base + ch)] = u(ch, n - i);
+                    }
+                    for ch in 0..m {
+                        z[(zr, base + r + ch)] = y(ch, n - i);
+                    }
+                }
+                for ch in 0..m {
+                    z[(zr, ncols + ch)] = y(ch, n);
+                }
+            }
+            rfac = QR::new(z).unpack_r();
+            start += len;
+        }
+    }
+    if let Some((row, col)) = linalg::first_non_finite(&rfac) {
+        return Err(LinalgError::NonFinite {
+            what: "OKID triangular factor",
+            row,
+            col,
+        });
+    }
+    Ok(rfac)
+}
+
+/// Companion matrix of the autoregressive part `y[n] = sum_i b_i y[n-i]`.
+fn companion(b: &[DMatrix<f64>], m: usize) -> DMatrix<f64> {
+    let p = b.len();
+    let mut c = DMatrix::zeros(m * p, m * p);
+    for (i, bi) in b.iter().enumerate() {
+        c.view_mut((0, i * m), (m, m)).copy_from(bi);
+    }
+    for i in 1..p {
+        for j in 0..m {
+            c[(i * m + j, (i - 1) * m + j)] = 1.0;
+        }
+    }
+    c
+}

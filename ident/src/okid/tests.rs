@@ -1,0 +1,228 @@
+use super::*;
+use crate::testutil::{max_relative_difference, normal, random_stable_system, white_noise_records};
+use rand::SeedableRng;
+use rand::rngs::ChaCha8Rng;
+
+/// Noise-free white-noise records from a random stable system, identified with a fixed
+/// observer order: the system Markov parameters must match C A^(k-1) B term by term.
+#[test]
+fn system_markov_parameters_match_known_systems() {
+    // (states n, outputs m, inputs r, observer order p, leads q)
+    let cases = [
+        (4, 2, 1, 2, 0),
+        (4, 2, 1, 4, 0),
+        (6, 3, 2, 2, 0),
+        (5, 1, 1, 6, 0),
+        (3, 1, 2, 4, 0),
+        (4, 2, 1, 3, 3),
+        (6, 2, 2, 4, 2),
+    ];
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    for (case, &(n, m, r, p, q)) in cases.iter().enumerate() {
+        let sys = random_stable_system(&mut rng, n, m, r, 0.95);
+        let records = white_noise_records(&mut rng, &sys, &[300, 517, 250]);
+        let okid = OkidParams::zoh()
+            .order(ObserverOrder::Fixed(p))
+            .leads(q)
+            .rcond(1e-10)
+            .markov_count(80)
+            .fit(&records)
+            .unwrap();
+        let want = sys.markov(80);
+        let err = max_relative_difference(&okid.markov, &want);
+        // Exact data and an exact observer model: only round-off of a well-conditioned
+        // least-squares problem remains (measured ~1e-13); 1e-9 leaves room for the
+        // recursion's growth over 80 terms at spectral radius up to 0.95.
+        assert!(err < 1e-9, "case {case}: Markov error {err:e}");
+        assert!(okid.rcond_raises.is_empty(), "case {case}");
+        for (j, g) in okid.lead_markov.iter().enumerate() {
+            // The data are causal: every lead term must vanish (same round-off budget).
+            assert!(
+                g.amax() < 1e-9 * want[1].amax(),
+                "case {case}: lead {} = {g}",
+                j + 1
+            );
+        }
+        assert!(okid.relative_residual < 1e-10, "case {case}");
+    }
+}
+
+/// The recursion from observer to system Markov parameters, checked term by term without
+/// any least squares: observer coefficients built from a known system and observer gain.
+#[test]
+fn recursion_reproduces_markov_parameters_including_the_bd_term() {
+    let mut rng = ChaCha8Rng::seed_from_u64(22);
+    let (n, m, r) = (5, 2, 2);
+    let sys = random_stable_system(&mut rng, n, m, r, 0.9);
+    // A small random gain keeps A + G C stable; p = 120 makes its tail negligible.
+    let mut g = DMatrix::from_fn(n, m, |_, _| 0.05 * normal(&mut rng));
+    let mut abar = &sys.a + &g * &sys.c;
+    while linalg::spectral_radius(&abar).unwrap() > 0.8 {
+        g *= 0.5;
+        abar = &sys.a + &g * &sys.c;
+    }
+    let p = 160;
+    let mut a = vec![sys.d.clone()];
+    let mut b = Vec::new();
+    let mut power = DMatrix::<f64>::identity(n, n);
+    let bbar = &sys.b + &g * &sys.d;
+    for _ in 1..=p {
+        a.push(&sys.c * &power * &bbar);
+        b.push(-(&sys.c * &power * &g));
+        power = &abar * power;
+    }
+    let (leads, markov) = system_markov(&a, &b, 0, 60);
+    assert!(leads.is_empty());
+    let want = sys.markov(60);
+    for (k, (got, w)) in markov.iter().zip(&want).enumerate() {
+        // Each term is a finite sum of products of O(1) matrices: round-off only.
+        assert!(
+            (got - w).amax() < 1e-12 * want[1].amax().max(1.0),
+            "Y_{k}: {got} vs {w}"
+        );
+    }
+    // Dropping the b_k D term (as some packaged code does) changes Y_1 by b_1 D.
+    let missing = &a[1];
+    assert!((missing - &want[1]).amax() > 1e-3 * want[1].amax());
+
+    let h = observer_gain_markov(&b, 40);
+    let mut ak = DMatrix::<f64>::identity(n, n);
+    for (k, hk) in h.iter().enumerate() {
+        let w = &sys.c * &ak * &g;
+        assert!((hk - &w).amax() < 1e-12, "h_{}: {hk} vs {w}", k + 1);
+        ak = &sys.a * ak;
+    }
+
+    // With leads the recursion starts at -q: a lone lead term propagates through b.
+    let q = 2;
+    let mut a_lead = vec![DMatrix::from_element(m, r, 1.0), DMatrix::zeros(m, r)];
+    a_lead.extend(a.iter().cloned());
+    let (lead, markov_lead) = system_markov(&a_lead, &b, q, 5);
+    assert_eq!(lead.len(), 2);
+    // g[-2] = a_{-2}; g[-1] = a_{-1} + b_1 g[-2]; g[0] = a_0 + b_1 g[-1] + b_2 g[-2].
+    let g2 = &a_lead[0];
+    let g1 = &a_lead[1] + &b[0] * g2;
+    let g0 = &a_lead[2] + &b[0] * &g1 + &b[1] * g2;
+    assert!((&lead[1] - g2).amax() < 1e-15);
+    assert!((&lead[0] - &g1).amax() < 1e-15);
+    assert!((&markov_lead[0] - &g0).amax() < 1e-14);
+}
+
+/// With p m = n the observer is unique (deadbeat): the identified observer-gain Markov
+/// parameters are those of a gain G with (A + G C)^p = 0.
+#[test]
+fn observer_gain_markov_parameters_define_a_deadbeat_observer() {
+    let mut rng = ChaCha8Rng::seed_from_u64(23);
+    for &(n, m, r) in &[(4usize, 2usize, 1usize), (6, 3, 2), (3, 1, 1), (6, 2, 1)] {
+        let p = n / m;
+        let sys = random_stable_system(&mut rng, n, m, r, 0.95);
+        let records = white_noise_records(&mut rng, &sys, &[400, 300]);
+        let okid = OkidParams::zoh()
+            .order(ObserverOrder::Fixed(p))
+            .rcond(1e-12)
+            .markov_count(41)
+            .fit(&records)
+            .unwrap();
+        // G from the first p terms: [h_1; ...; h_p] = O_p G.
+        let mut obs = DMatrix::zeros(p * m, n);
+        let mut hs = DMatrix::zeros(p * m, m);
+        let mut ak = DMatrix::<f64>::identity(n, n);
+        for k in 0..p {
+            obs.view_mut((k * m, 0), (m, n)).copy_from(&(&sys.c * &ak));
+            hs.view_mut((k * m, 0), (m, m))
+                .copy_from(&okid.observer_gain_markov[k]);
+            ak = &sys.a * ak;
+        }
+        let g = obs.lu().solve(&hs).unwrap();
+        let abar = &sys.a + &g * &sys.c;
+        let mut power = DMatrix::<f64>::identity(n, n);
+        for _ in 0..p {
+            power = &abar * power;
+        }
+        // Deadbeat to round-off (entries of A are O(1)).
+        assert!(power.amax() < 1e-8, "n={n} m={m}: (A+GC)^p = {power}");
+        let mut ak = DMatrix::<f64>::identity(n, n);
+        for (k, hk) in okid.observer_gain_markov.iter().enumerate() {
+            let w = &sys.c * &ak * &g;
+            assert!(
+                (hk - &w).amax() < 1e-8 * w.amax().max(1.0),
+                "n={n} m={m}: h_{} differs",
+                k + 1
+            );
+            ak = &sys.a * ak;
+        }
+    }
+}
+
+#[test]
+fn automatic_order_stops_at_the_first_exact_fit() {
+    let mut rng = ChaCha8Rng::seed_from_u64(24);
+    for &(n, m, want) in &[(4usize, 2usize, 2usize), (6, 2, 3), (3, 1, 3)] {
+        let sys = random_stable_system(&mut rng, n, m, 1, 0.9);
+        let records = white_noise_records(&mut rng, &sys, &[500, 400]);
+        let okid = OkidParams::zoh()
+            .order(ObserverOrder::Auto { max: 12 })
+            .fit(&records)
+            .unwrap();
+        assert_eq!(okid.observer_order, want, "n={n} m={m}: bic {:?}", okid.bic);
+        assert_eq!(okid.bic.len(), 12);
+    }
+}
+
+#[test]
+fn data_errors_are_typed() {
+    let mut rng = ChaCha8Rng::seed_from_u64(26);
+    let sys = random_stable_system(&mut rng, 4, 2, 1, 0.9);
+    let good = white_noise_records(&mut rng, &sys, &[100, 100]);
+    let params = OkidParams::zoh().order(ObserverOrder::Fixed(10)).leads(2);
+
+    let mut short = good.clone();
+    short[1] = white_noise_records(&mut rng, &sys, &[12]).remove(0);
+    assert_eq!(
+        params.fit(&short),
+        Err(OkidError::Data(DataError::TooShort {
+            record: 1,
+            samples: 12,
+            required: 13,
+            reason: "observer order plus leads plus one",
+        }))
+    );
+
+    let mut silent = good.clone();
+    silent[0].inputs.fill(0.0);
+    assert_eq!(
+        params.fit(&silent),
+        Err(OkidError::Data(DataError::NoExcitation { record: 0 }))
+    );
+
+    let mut nan = good.clone();
+    nan[1].outputs[(1, 37)] = f64::NAN;
+    assert!(matches!(
+        params.fit(&nan),
+        Err(OkidError::Data(DataError::NonFinite {
+            record: 1,
+            channel: crate::record::Channel::Output(1),
+            sample: 37,
+            ..
+        }))
+    ));
+
+    let few = white_noise_records(&mut rng, &sys, &[20]);
+    assert!(matches!(
+        OkidParams::zoh().order(ObserverOrder::Fixed(10)).fit(&few),
+        Err(OkidError::Underdetermined { .. })
+    ));
+
+    assert!(matches!(
+        OkidParams::zoh().rcond(0.0).check(),
+        Err(OkidError::InvalidParams { .. })
+    ));
+    assert!(matches!(
+        OkidParams::zoh().order(ObserverOrder::Fixed(0)).check(),
+        Err(OkidError::InvalidParams { .. })
+    ));
+    assert_eq!(
+        OkidParams::zoh().fit(&[]),
+        Err(OkidError::Data(DataError::NoRecords))
+    );
+}

@@ -1,0 +1,137 @@
+//! Rayleigh (proportional) damping fitted to identified modes (paper eq. 16-19).
+//!
+//! `xi_i = alpha / (2 omega_i) + beta omega_i / 2` for every mode, solved for `alpha` and
+//! `beta` in the least-squares sense (column-scaled SVD); the damping matrix is then
+//! `alpha M + beta K`.
+
+use crate::linalg;
+use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// Rayleigh damping coefficients: `damping = alpha M + beta K`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Rayleigh {
+    /// Mass-proportional coefficient (1/s).
+    pub alpha: f64,
+    /// Stiffness-proportional coefficient (s).
+    pub beta: f64,
+}
+
+/// Ways the Rayleigh fit can fail.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RayleighError {
+    /// Fewer than two modes.
+    #[error("Rayleigh damping needs at least 2 modes, {modes} given")]
+    TooFewModes { modes: usize },
+    /// A frequency or damping ratio is not finite or a frequency is not positive.
+    #[error("mode {mode} has frequency {frequency_hz} Hz and damping ratio {damping_ratio}")]
+    InvalidMode {
+        mode: usize,
+        frequency_hz: f64,
+        damping_ratio: f64,
+    },
+    /// All modes have the same frequency: alpha and beta cannot be separated.
+    #[error("the modal frequencies do not separate alpha from beta")]
+    Degenerate,
+}
+
+impl Rayleigh {
+    /// Least-squares fit to natural frequencies (Hz) and damping ratios.
+    pub fn fit(frequencies_hz: &[f64], damping_ratios: &[f64]) -> Result<Self, RayleighError> {
+        assert_eq!(
+            frequencies_hz.len(),
+            damping_ratios.len(),
+            "Rayleigh::fit: one damping ratio per frequency"
+        );
+        let n = frequencies_hz.len();
+        if n < 2 {
+            return Err(RayleighError::TooFewModes { modes: n });
+        }
+        for (mode, (&f, &xi)) in frequencies_hz.iter().zip(damping_ratios).enumerate() {
+            if !(f.is_finite() && f > 0.0 && xi.is_finite()) {
+                return Err(RayleighError::InvalidMode {
+                    mode,
+                    frequency_hz: f,
+                    damping_ratio: xi,
+                });
+            }
+        }
+        let omega: Vec<f64> = frequencies_hz.iter().map(|f| 2.0 * PI * f).collect();
+        let mut x = DMatrix::from_fn(n, 2, |i, j| {
+            if j == 0 {
+                0.5 / omega[i]
+            } else {
+                0.5 * omega[i]
+            }
+        });
+        let scale: Vec<f64> = (0..2).map(|j| x.column(j).norm()).collect();
+        for (j, s) in scale.iter().enumerate() {
+            x.column_mut(j).unscale_mut(*s);
+        }
+        let y = DMatrix::from_column_slice(n, 1, damping_ratios);
+        let svd = linalg::thin_svd(&x).map_err(|_| RayleighError::Degenerate)?;
+        let (sol, rank) = linalg::lstsq_truncated(&svd, &y, 1e-10);
+        if rank < 2 {
+            return Err(RayleighError::Degenerate);
+        }
+        Ok(Self {
+            alpha: sol[0] / scale[0],
+            beta: sol[1] / scale[1],
+        })
+    }
+
+    /// Damping matrix `alpha M + beta K`.
+    pub fn damping(&self, mass: &DMatrix<f64>, stiffness: &DMatrix<f64>) -> DMatrix<f64> {
+        assert_eq!(
+            mass.shape(),
+            stiffness.shape(),
+            "Rayleigh::damping: M and K shapes"
+        );
+        mass * self.alpha + stiffness * self.beta
+    }
+
+    /// Damping ratio the fit gives at `frequency_hz`.
+    pub fn damping_ratio(&self, frequency_hz: f64) -> f64 {
+        let omega = 2.0 * PI * frequency_hz;
+        0.5 * self.alpha / omega + 0.5 * self.beta * omega
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn two_modes_are_fitted_exactly_and_more_in_least_squares() {
+        let (alpha, beta) = (0.1755, 3.2283e-5);
+        let truth = Rayleigh { alpha, beta };
+        let f = [2.7, 9.2, 15.0];
+        let xi: Vec<f64> = f.iter().map(|&f| truth.damping_ratio(f)).collect();
+        let fit = Rayleigh::fit(&f[..2], &xi[..2]).unwrap();
+        // Two equations, two unknowns: round-off only.
+        assert!((fit.alpha - alpha).abs() < 1e-12 * alpha);
+        assert!((fit.beta - beta).abs() < 1e-10 * beta);
+        let fit = Rayleigh::fit(&f, &xi).unwrap();
+        assert!((fit.alpha - alpha).abs() < 1e-12 * alpha);
+        let m = DMatrix::identity(2, 2);
+        let k = DMatrix::from_element(2, 2, 1.0);
+        assert_eq!(fit.damping(&m, &k)[(0, 1)], fit.beta);
+    }
+
+    #[test]
+    fn errors_are_typed() {
+        assert_eq!(
+            Rayleigh::fit(&[3.0], &[0.01]),
+            Err(RayleighError::TooFewModes { modes: 1 })
+        );
+        assert_eq!(
+            Rayleigh::fit(&[3.0, 3.0], &[0.01, 0.02]),
+            Err(RayleighError::Degenerate)
+        );
+        assert!(matches!(
+            Rayleigh::fit(&[3.0, f64::NAN], &[0.01, 0.02]),
+            Err(RayleighError::InvalidMode { mode: 1, .. })
+        ));
+    }
+}

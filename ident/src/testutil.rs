@@ -1,0 +1,120 @@
+//! Helpers shared by the unit tests.
+
+use crate::record::Record;
+use crate::statespace::StateSpace;
+use nalgebra::DMatrix;
+use rand::RngExt;
+use rand::rngs::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+pub fn normal(rng: &mut ChaCha8Rng) -> f64 {
+    rng.sample(StandardNormal)
+}
+
+/// Random stable discrete system of order `n`: eigenvalues with radii in
+/// [0.5, `max_radius`] and angles in [0.1, 2.5] rad, in a random basis.
+pub fn random_stable_system(
+    rng: &mut ChaCha8Rng,
+    n: usize,
+    m: usize,
+    r: usize,
+    max_radius: f64,
+) -> StateSpace {
+    let mut a = DMatrix::<f64>::zeros(n, n);
+    let mut i = 0;
+    while i + 1 < n {
+        let rho = 0.5 + (max_radius - 0.5) * rng.random::<f64>();
+        let theta = 0.1 + 2.4 * rng.random::<f64>();
+        let (c, s) = (rho * theta.cos(), rho * theta.sin());
+        a[(i, i)] = c;
+        a[(i, i + 1)] = -s;
+        a[(i + 1, i)] = s;
+        a[(i + 1, i + 1)] = c;
+        i += 2;
+    }
+    if i < n {
+        a[(i, i)] = 0.5 + (max_radius - 0.5) * rng.random::<f64>();
+    }
+    let t = DMatrix::<f64>::identity(n, n) + DMatrix::from_fn(n, n, |_, _| 0.3 * normal(rng));
+    let ti = t.clone().try_inverse().expect("random basis is invertible");
+    let a = &t * a * ti;
+    let b = DMatrix::from_fn(n, r, |_, _| normal(rng));
+    let c = DMatrix::from_fn(m, n, |_, _| normal(rng));
+    let d = DMatrix::from_fn(m, r, |_, _| normal(rng));
+    StateSpace::new(a, b, c, d, 1.0)
+}
+
+/// Records of white Gaussian input of the given lengths, response from rest.
+pub fn white_noise_records(
+    rng: &mut ChaCha8Rng,
+    sys: &StateSpace,
+    lengths: &[usize],
+) -> Vec<Record> {
+    lengths
+        .iter()
+        .map(|&len| {
+            let u = DMatrix::from_fn(sys.inputs(), len, |_, _| normal(rng));
+            let y = sys.simulate(&u);
+            Record::new(u, y)
+        })
+        .collect()
+}
+
+/// Largest entry-wise difference between two sequences of matrices, relative to the
+/// largest entry of `want`.
+pub fn max_relative_difference(got: &[DMatrix<f64>], want: &[DMatrix<f64>]) -> f64 {
+    assert!(got.len() >= want.len());
+    let scale = want.iter().map(|w| w.amax()).fold(0.0, f64::max);
+    got.iter()
+        .zip(want)
+        .map(|(g, w)| (g - w).amax())
+        .fold(0.0, f64::max)
+        / scale
+}
+
+/// Mass, stiffness and damping of the paper's 2-DOF frame (eq. 44-45, Rayleigh damping from
+/// eq. 41-42).
+pub fn paper_frame() -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    let m = DMatrix::from_row_slice(2, 2, &[0.2913, 0.0153, 0.0153, 0.3387]);
+    let k = DMatrix::from_row_slice(2, 2, &[630.44, -425.83, -425.83, 439.01]);
+    let damping = &m * 0.1755 + &k * 3.2283e-5;
+    (m, k, damping)
+}
+
+/// Continuous model with a force at DOF 0 and acceleration outputs at every DOF:
+/// `(Ac, Bc, C, D)` with `C = [-M^-1 K, -M^-1 R]`, `D = M^-1 e_0`.
+pub fn acceleration_model(
+    mass: &DMatrix<f64>,
+    stiffness: &DMatrix<f64>,
+    damping: &DMatrix<f64>,
+) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    let n = mass.nrows();
+    let mi = mass.clone().try_inverse().unwrap();
+    let mut ac = DMatrix::zeros(2 * n, 2 * n);
+    ac.view_mut((0, n), (n, n))
+        .copy_from(&DMatrix::identity(n, n));
+    let mik = -(&mi * stiffness);
+    let mir = -(&mi * damping);
+    ac.view_mut((n, 0), (n, n)).copy_from(&mik);
+    ac.view_mut((n, n), (n, n)).copy_from(&mir);
+    let mut bc = DMatrix::zeros(2 * n, 1);
+    bc.view_mut((n, 0), (n, 1)).copy_from(&mi.column(0));
+    let mut c = DMatrix::zeros(n, 2 * n);
+    c.view_mut((0, 0), (n, n)).copy_from(&mik);
+    c.view_mut((0, n), (n, n)).copy_from(&mir);
+    let d = mi.columns(0, 1).into_owned();
+    (ac, bc, c, d)
+}
+
+/// Exact zero-order-hold discretization `(Ad, Bd)`.
+pub fn zoh(ac: &DMatrix<f64>, bc: &DMatrix<f64>, dt: f64) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (n, r) = bc.shape();
+    let mut aug = DMatrix::zeros(n + r, n + r);
+    aug.view_mut((0, 0), (n, n)).copy_from(ac);
+    aug.view_mut((0, n), (n, r)).copy_from(bc);
+    let e = (aug * dt).exp();
+    (
+        e.view((0, 0), (n, n)).into_owned(),
+        e.view((0, n), (n, r)).into_owned(),
+    )
+}
