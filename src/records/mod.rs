@@ -473,17 +473,21 @@ pub fn write_csv(path: &Path, rec: &RecordFile) -> Result<(), RecordError> {
         }
     }
     let n = rec.len();
-    if n >= 2 {
-        let t: Vec<f64> = (0..n).map(|i| rec.time_s(i)).collect();
-        if timeaxis::check_uniform(&t, &timeaxis::PrintModel::exact(), 1.0).is_err() {
-            return Err(refuse(
-                path,
-                format!(
-                    "the time stamps start_s + i*dt_s (start {} s, dt {} s) are not uniform at double precision",
-                    rec.start_s, rec.dt_s
-                ),
-            ));
-        }
+    if n < 2 {
+        return Err(refuse(
+            path,
+            "a single sample cannot carry its sampling interval in a CSV time column".into(),
+        ));
+    }
+    let t: Vec<f64> = (0..n).map(|i| rec.time_s(i)).collect();
+    if timeaxis::check_uniform(&t, &timeaxis::PrintModel::exact(), 1.0).is_err() {
+        return Err(refuse(
+            path,
+            format!(
+                "the time stamps start_s + i*dt_s (start {} s, dt {} s) are not uniform at double precision",
+                rec.start_s, rec.dt_s
+            ),
+        ));
     }
     write_atomically(path, csv::render_csv(rec).as_bytes())
 }
