@@ -226,7 +226,7 @@ pub enum Problem {
     // ----- UFF -----
     #[error("expected a dataset delimiter line '    -1', found '{found}'")]
     UffExpectedDelimiter { found: String },
-    #[error("dataset is truncated: the file ends {missing}")]
+    #[error("dataset is truncated: {missing}")]
     UffTruncated { missing: String },
     #[error("bad value '{text}': {reason}")]
     UffBadField { text: String, reason: String },

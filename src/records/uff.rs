@@ -73,6 +73,22 @@ impl<'a> Cursor<'a> {
         Some(bytes)
     }
 
+    /// Whether a delimiter line `-1` starts `offset` bytes ahead (after
+    /// an optional line break).
+    fn delimiter_at(&self, offset: usize) -> bool {
+        let Some(rest) = self
+            .pos
+            .checked_add(offset)
+            .and_then(|p| self.data.get(p..))
+        else {
+            return false;
+        };
+        let rest = rest.strip_prefix(b"\r").unwrap_or(rest);
+        let rest = rest.strip_prefix(b"\n").unwrap_or(rest);
+        let line = rest.split(|&b| b == b'\n').next().unwrap_or(rest);
+        is_delimiter(line)
+    }
+
     fn remaining(&self) -> usize {
         self.data.len().saturating_sub(self.pos)
     }
@@ -158,7 +174,7 @@ impl Ctx<'_> {
         self.err(
             self.at_line(line),
             Problem::UffTruncated {
-                missing: missing.into(),
+                missing: format!("the file ends {}", missing.into()),
             },
         )
     }
@@ -265,7 +281,8 @@ fn record6(ctx: &Ctx, line_no: usize, line: &[u8]) -> Result<Rec6, RecordError> 
     if tokens.len() == 10 {
         let ints: Option<Vec<i64>> = INTS.iter().map(|&i| tokens[i].parse().ok()).collect();
         if let Some(v) = ints {
-            return check_rec6(ctx, line_no, v[0], v[5], v[6], tokens[6].as_bytes());
+            // v holds the fields listed in INTS: v[4] is field 6 (node).
+            return check_rec6(ctx, line_no, v[0], v[4], v[5], tokens[6].as_bytes());
         }
     }
     // Fixed columns.
@@ -560,6 +577,14 @@ fn read_dataset58(
     let mut rec: Vec<(usize, &[u8])> = Vec::with_capacity(11);
     for k in 1..=11 {
         match cur.next_line() {
+            Some((n, l)) if is_delimiter(l) => {
+                return Err(ctx.err(
+                    ctx.at_line(n),
+                    Problem::UffTruncated {
+                        missing: format!("its closing '-1' comes before record {k} of 11"),
+                    },
+                ));
+            }
             Some(l) => rec.push(l),
             None => {
                 return Err(ctx.truncated(
@@ -567,16 +592,6 @@ fn read_dataset58(
                     format!("in the header, before record {k} of 11"),
                 ));
             }
-        }
-    }
-    for (k, &(n, l)) in rec.iter().enumerate() {
-        if is_delimiter(l) {
-            return Err(ctx.err(
-                ctx.at_line(n),
-                Problem::UffTruncated {
-                    missing: format!("before record {} of 11 (the dataset ends early)", k + 1),
-                },
-            ));
         }
     }
     let id1 = text(rec[0].1).trim().to_string();
@@ -642,7 +657,16 @@ fn read_dataset58(
             };
             let width: u64 = if r7.ord_type == 2 { 4 } else { 8 };
             let expected = n_values.and_then(|n| n.checked_mul(width));
-            if expected != Some(b.bytes) {
+            // pyuff (2.x) declares count*8 bytes for uneven real data but
+            // writes abscissa and ordinate (twice that). Accept exactly that
+            // case, and only if the closing delimiter is where the full
+            // data ends: then the file cannot be read any other way.
+            let pyuff_uneven = !r7.even
+                && expected == b.bytes.checked_mul(2)
+                && expected
+                    .and_then(|e| usize::try_from(e).ok())
+                    .is_some_and(|e| cur.delimiter_at(e));
+            if expected != Some(b.bytes) && !pyuff_uneven {
                 return Err(ctx.err(
                     ctx.at(header_line, "binary header field 6 (number of bytes)"),
                     Problem::UffByteCountMismatch {
@@ -654,7 +678,7 @@ fn read_dataset58(
                 ));
             }
             let available = cur.remaining();
-            let payload = usize::try_from(b.bytes)
+            let payload = usize::try_from(if pyuff_uneven { b.bytes * 2 } else { b.bytes })
                 .ok()
                 .and_then(|n| cur.take(n))
                 .ok_or_else(|| {
