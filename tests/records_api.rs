@@ -254,3 +254,17 @@ fn written_files_are_not_private() {
     let ordinary = std::fs::metadata(&probe).unwrap().permissions().mode() & 0o777;
     assert_eq!(mode, ordinary);
 }
+
+#[test]
+fn names_with_parentheses_match_whole() {
+    let mut rec = record(4, 1e-3);
+    rec.channels[1].name = "Acc (roof)".into();
+    rec.channels[2].name = "Acc".into();
+    let get = |s: &str| {
+        rec.channel(&s.parse::<ChannelSpec>().unwrap())
+            .map(|c| c.name.clone())
+    };
+    assert_eq!(get("acc (ROOF)").unwrap(), "Acc (roof)");
+    assert_eq!(get("acc [m/s^2]").unwrap(), "Acc");
+    assert_eq!(get("Acc").unwrap(), "Acc");
+}

@@ -282,10 +282,20 @@ impl RecordFile {
         let matches: Vec<usize> = match spec {
             ChannelSpec::Index(k) => all.filter(|&i| i + 1 == *k).collect(),
             ChannelSpec::Name(n) => {
-                let (bare, _) = csv::split_unit(n);
-                let want = bare.to_lowercase();
-                all.filter(|&i| self.channels[i].name.to_lowercase() == want)
-                    .collect()
+                // The whole text first: UFF names may end in "(...)" too.
+                let names: Vec<String> = self
+                    .channels
+                    .iter()
+                    .map(|c| c.name.to_lowercase())
+                    .collect();
+                let whole = n.trim().to_lowercase();
+                let exact: Vec<usize> = all.clone().filter(|&i| names[i] == whole).collect();
+                if exact.is_empty() {
+                    let bare = csv::split_unit(n).0.to_lowercase();
+                    all.filter(|&i| names[i] == bare).collect()
+                } else {
+                    exact
+                }
             }
             ChannelSpec::NodeDir { node, direction } => all
                 .filter(|&i| {
@@ -464,32 +474,38 @@ fn refuse(path: &Path, reason: String) -> RecordError {
 /// shortest form that reads back bit for bit. Node, direction and ID line
 /// are not stored. Refuses records that would not read back unchanged.
 pub fn write_csv(path: &Path, rec: &RecordFile) -> Result<(), RecordError> {
+    let text = csv_text(rec).map_err(|reason| refuse(path, reason))?;
+    write_atomically(path, text.as_bytes())
+}
+
+/// The content [`write_csv`] writes; the error names `rec.path`.
+pub fn encode_csv(rec: &RecordFile) -> Result<String, RecordError> {
+    csv_text(rec).map_err(|reason| refuse(&rec.path, reason))
+}
+
+fn csv_text(rec: &RecordFile) -> Result<String, String> {
     if let Some(reason) = rec.consistency_problem() {
-        return Err(refuse(path, reason));
+        return Err(reason);
     }
     for (i, ch) in rec.channels.iter().enumerate() {
         if let Some(reason) = csv::header_round_trip_problem(ch, i) {
-            return Err(refuse(path, reason));
+            return Err(reason);
         }
     }
     let n = rec.len();
     if n < 2 {
-        return Err(refuse(
-            path,
+        return Err(
             "a single sample cannot carry its sampling interval in a CSV time column".into(),
-        ));
+        );
     }
     let t: Vec<f64> = (0..n).map(|i| rec.time_s(i)).collect();
     if timeaxis::check_uniform(&t, &timeaxis::PrintModel::exact(), 1.0).is_err() {
-        return Err(refuse(
-            path,
-            format!(
-                "the time stamps start_s + i*dt_s (start {} s, dt {} s) are not uniform at double precision",
-                rec.start_s, rec.dt_s
-            ),
+        return Err(format!(
+            "the time stamps start_s + i*dt_s (start {} s, dt {} s) are not uniform at double precision",
+            rec.start_s, rec.dt_s
         ));
     }
-    write_atomically(path, csv::render_csv(rec).as_bytes())
+    Ok(csv::render_csv(rec))
 }
 
 /// Writes `rec` as UFF dataset 58, one dataset per channel: binary (58b,
@@ -515,11 +531,21 @@ pub fn write_uff58_as(
     rec: &RecordFile,
     enc: Uff58Encoding,
 ) -> Result<(), RecordError> {
+    let bytes = uff58_bytes(rec, enc).map_err(|reason| refuse(path, reason))?;
+    write_atomically(path, &bytes)
+}
+
+/// The content [`write_uff58_as`] writes; the error names `rec.path`.
+pub fn encode_uff58(rec: &RecordFile, enc: Uff58Encoding) -> Result<Vec<u8>, RecordError> {
+    uff58_bytes(rec, enc).map_err(|reason| refuse(&rec.path, reason))
+}
+
+fn uff58_bytes(rec: &RecordFile, enc: Uff58Encoding) -> Result<Vec<u8>, String> {
     if let Some(reason) = rec.consistency_problem() {
-        return Err(refuse(path, reason));
+        return Err(reason);
     }
-    uff::check_writable(rec).map_err(|reason| refuse(path, reason))?;
-    write_atomically(path, &uff::render_uff58(rec, enc))
+    uff::check_writable(rec)?;
+    Ok(uff::render_uff58(rec, enc))
 }
 
 /// Writes `bytes` to a temporary file in the target's directory, flushes it
