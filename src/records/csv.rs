@@ -401,11 +401,10 @@ fn header_cell(ch: &Channel) -> String {
 /// Checks that a channel's name and unit come back unchanged from
 /// [`parse_csv`]; returns the reason if not.
 pub(crate) fn header_round_trip_problem(ch: &Channel, index: usize) -> Option<String> {
-    if ch.name.contains(['\n', '\r'])
-        || ch.unit.as_deref().is_some_and(|u| u.contains(['\n', '\r']))
-    {
+    let control = |t: &str| t.chars().any(char::is_control);
+    if control(&ch.name) || ch.unit.as_deref().is_some_and(control) {
         return Some(format!(
-            "channel #{} name or unit contains a line break",
+            "channel #{} name or unit contains a control character",
             index + 1
         ));
     }

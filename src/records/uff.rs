@@ -112,6 +112,17 @@ fn text(bytes: &[u8]) -> Cow<'_, str> {
     String::from_utf8_lossy(bytes)
 }
 
+/// A free-text field (ID line, label): control characters, such as the
+/// NUL padding some writers use, count as blanks; the result is trimmed.
+fn free_text(bytes: &[u8]) -> String {
+    text(bytes)
+        .chars()
+        .map(|c| if c.is_control() { ' ' } else { c })
+        .collect::<String>()
+        .trim()
+        .to_string()
+}
+
 /// Byte columns `[from, to)` of a line (short lines give what is there).
 fn columns(line: &[u8], from: usize, to: usize) -> &[u8] {
     let to = to.min(line.len());
@@ -457,11 +468,11 @@ fn labels(line: &[u8]) -> (String, String) {
     let fixed = line.len() >= 48 && parse_int_field(columns(line, 0, 10)).is_ok();
     if fixed {
         (
-            text(columns(line, 26, 46).trim_ascii()).into_owned(),
-            text(columns(line, 47, 67).trim_ascii()).into_owned(),
+            free_text(columns(line, 26, 46)),
+            free_text(columns(line, 47, 67)),
         )
     } else {
-        let t = text(line);
+        let t = free_text(line);
         let tokens: Vec<&str> = t.split_ascii_whitespace().collect();
         (
             tokens.get(4).copied().unwrap_or("").to_string(),
@@ -594,8 +605,8 @@ fn read_dataset58(
             }
         }
     }
-    let id1 = text(rec[0].1).trim().to_string();
-    let id5 = text(rec[4].1).into_owned();
+    let id1 = free_text(rec[0].1);
+    let id5 = free_text(rec[4].1);
     let r6 = record6(ctx, rec[5].0, rec[5].1)?;
     debug_assert_eq!(r6.func_type, 1);
     let (rec7_line, rec7_bytes) = rec[6];
