@@ -86,3 +86,17 @@ fn nul_padded_id_line() {
         Err(RecordError::InvalidRecord { .. })
     ));
 }
+
+/// A 58b file with dt = 4.88281e-14 s and start -0.0123 s: the CSV writer
+/// accepted it, but start + i*dt rounded to the ulps of 0.0123 carries dt
+/// only to about 1e-5. The CSV writer now checks that the time column will
+/// give dt back to 1e-9 and refuses otherwise.
+#[test]
+fn csv_cannot_carry_tiny_dt_after_large_start() {
+    let data = std::fs::read(dir().join("roundtrip-csv-dt-lost-to-start-offset.uff")).unwrap();
+    let rec = parse_record(&data, Path::new("x.uff"), &ReadOptions::default()).unwrap();
+    assert_eq!(rec.dt_s, 4.88281e-14);
+    let e = encode_csv(&rec).unwrap_err();
+    assert!(e.to_string().contains("cannot carry dt_s"), "{e}");
+    assert!(encode_uff58(&rec, Uff58Encoding::Binary).is_ok());
+}

@@ -498,14 +498,20 @@ fn csv_text(rec: &RecordFile) -> Result<String, String> {
             "a single sample cannot carry its sampling interval in a CSV time column".into(),
         );
     }
+    // The reader recovers dt from the time column; make sure it will get
+    // it back (bit for bit in the usual cases, to 1e-9 always).
     let t: Vec<f64> = (0..n).map(|i| rec.time_s(i)).collect();
-    if timeaxis::check_uniform(&t, &timeaxis::PrintModel::exact(), 1.0).is_err() {
-        return Err(format!(
+    match timeaxis::check_uniform(&t, &timeaxis::PrintModel::exact(), 1.0) {
+        Ok(dt) if (dt - rec.dt_s).abs() <= 1e-9 * rec.dt_s => Ok(csv::render_csv(rec)),
+        Ok(dt) => Err(format!(
+            "with start_s = {} s the time column cannot carry dt_s = {} s (it would read back as {dt} s); use UFF",
+            rec.start_s, rec.dt_s
+        )),
+        Err(_) => Err(format!(
             "the time stamps start_s + i*dt_s (start {} s, dt {} s) are not uniform at double precision",
             rec.start_s, rec.dt_s
-        ));
+        )),
     }
-    Ok(csv::render_csv(rec))
 }
 
 /// Writes `rec` as UFF dataset 58, one dataset per channel: binary (58b,
