@@ -100,3 +100,19 @@ fn csv_cannot_carry_tiny_dt_after_large_start() {
     assert!(e.to_string().contains("cannot carry dt_s"), "{e}");
     assert!(encode_uff58(&rec, Uff58Encoding::Binary).is_ok());
 }
+
+/// Record 7 with abscissa minimum -1.23E-402, which underflows to -0.0:
+/// CSV wrote the first time as start + 0*dt = +0.0, so the start changed
+/// sign. Readers now return +0.0 for a zero start.
+#[test]
+fn negative_zero_start() {
+    let data = std::fs::read(dir().join("roundtrip-negative-zero-start.uff")).unwrap();
+    let rec = parse_record(&data, Path::new("x.uff"), &ReadOptions::default()).unwrap();
+    assert_eq!(rec.start_s.to_bits(), 0.0f64.to_bits());
+    let csv = parse_record(
+        b"time,a\n-0,1\n1,2\n",
+        Path::new("x.csv"),
+        &ReadOptions::default(),
+    );
+    assert_eq!(csv.unwrap().start_s.to_bits(), 0.0f64.to_bits());
+}

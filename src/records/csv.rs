@@ -338,7 +338,9 @@ pub fn parse_csv(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<Record
             delimiter: delim as u8,
         },
         dt_s,
-        start_s,
+        // -0.0 (a time column starting at "-0") becomes +0.0: times are
+        // computed as start + i*dt, which gives +0.0 at i = 0 anyway.
+        start_s: start_s + 0.0,
         channels,
     })
 }

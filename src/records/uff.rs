@@ -1030,7 +1030,8 @@ pub fn parse_uff58(
     } else {
         Format::Uff58Ascii
     };
-    let (dt_s, start_s) = (first.dt, first.start);
+    // -0.0 becomes +0.0, as in the CSV reader.
+    let (dt_s, start_s) = (first.dt, first.start + 0.0);
     Ok(RecordFile {
         path: path.to_path_buf(),
         format,
