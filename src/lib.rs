@@ -2,5 +2,6 @@
 //! runs, sweeps and reports. The `frameid` binary is thin glue over this
 //! library; the numerics live in the `sim` and `ident` crates.
 
+pub mod records;
 pub mod scenario;
 pub mod truth;
