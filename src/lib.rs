@@ -2,6 +2,10 @@
 //! runs, sweeps and reports. The `frameid` binary is thin glue over this
 //! library; the numerics live in the `sim` and `ident` crates.
 
+pub mod cli;
+pub mod commands;
+pub mod format;
+pub mod fsutil;
 pub mod records;
 pub mod scenario;
 pub mod truth;

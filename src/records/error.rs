@@ -11,13 +11,14 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum RecordError {
-    /// The operating system refused a file operation.
-    #[error("{}: cannot {op}: {source}", path.display())]
+    /// The operating system refused a file operation. The message is
+    /// self-contained (the I/O error is not chained as a source, so error
+    /// chains do not print it twice).
+    #[error("{}: cannot {op}: {error}", path.display())]
     Io {
         path: PathBuf,
         op: IoOp,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
 
     /// The file content is not a usable record.

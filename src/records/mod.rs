@@ -234,10 +234,10 @@ impl Channel {
         if let (Some(n), Some(d)) = (self.node, self.direction) {
             s.push_str(&format!(" (node {n} {})", direction_label(d)));
         }
-        if let Some(id) = &self.id_line {
-            if id != &self.name {
-                s.push_str(&format!(" id '{id}'"));
-            }
+        if let Some(id) = &self.id_line
+            && id != &self.name
+        {
+            s.push_str(&format!(" id '{id}'"));
         }
         s
     }
@@ -403,10 +403,10 @@ fn looks_like_uff(bytes: &[u8]) -> bool {
 /// Reads a record file (CSV or UFF dataset 58, ASCII or binary).
 pub fn read_record(path: &Path, opts: &ReadOptions) -> Result<RecordFile, RecordError> {
     opts.validate()?;
-    let bytes = std::fs::read(path).map_err(|source| RecordError::Io {
+    let bytes = std::fs::read(path).map_err(|error| RecordError::Io {
         path: path.to_path_buf(),
         op: IoOp::Read,
-        source,
+        error,
     })?;
     parse_record(&bytes, path, opts)
 }
@@ -558,10 +558,10 @@ fn uff58_bytes(rec: &RecordFile, enc: Uff58Encoding) -> Result<Vec<u8>, String> 
 /// to disk and renames it over `path`. On any failure the temporary file is
 /// removed and `path` is untouched.
 fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), RecordError> {
-    let io_err = |op, source| RecordError::Io {
+    let io_err = |op, error| RecordError::Io {
         path: path.to_path_buf(),
         op,
-        source,
+        error,
     };
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,

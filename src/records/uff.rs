@@ -575,15 +575,15 @@ fn read_dataset58(
     header_line: usize,
     binary: Option<BinaryHeader>,
 ) -> Result<Dataset, RecordError> {
-    if let Some(b) = &binary {
-        if b.ascii_lines != 11 {
-            return Err(ctx.bad_field(
-                header_line,
-                "binary header field 5 (number of ASCII lines)",
-                b.ascii_lines.to_string().as_bytes(),
-                "dataset 58 has 11 ASCII header records",
-            ));
-        }
+    if let Some(b) = &binary
+        && b.ascii_lines != 11
+    {
+        return Err(ctx.bad_field(
+            header_line,
+            "binary header field 5 (number of ASCII lines)",
+            b.ascii_lines.to_string().as_bytes(),
+            "dataset 58 has 11 ASCII header records",
+        ));
     }
     let mut rec: Vec<(usize, &[u8])> = Vec::with_capacity(11);
     for k in 1..=11 {
@@ -786,7 +786,7 @@ fn read_dataset58(
                             },
                         )
                     })?;
-                    if !r7.even && values.len() % 2 == 0 {
+                    if !r7.even && values.len().is_multiple_of(2) {
                         x_model.observe(numfmt::printed_precision(tok));
                     }
                     values.push(v);
@@ -1010,20 +1010,20 @@ pub fn parse_uff58(
             ));
         }
     }
-    if let Some(fs) = opts.fs_hz {
-        if (1.0 / fs - first.dt).abs() > E13_REL * first.dt {
-            let ctx = Ctx {
-                path,
-                dataset: first.index,
-            };
-            return Err(ctx.err(
-                ctx.at(first.rec7_line, "record 7 field 5 (abscissa increment)"),
-                Problem::FsMismatch {
-                    fs_hz: fs,
-                    file_dt_s: first.dt,
-                },
-            ));
-        }
+    if let Some(fs) = opts.fs_hz
+        && (1.0 / fs - first.dt).abs() > E13_REL * first.dt
+    {
+        let ctx = Ctx {
+            path,
+            dataset: first.index,
+        };
+        return Err(ctx.err(
+            ctx.at(first.rec7_line, "record 7 field 5 (abscissa increment)"),
+            Problem::FsMismatch {
+                fs_hz: fs,
+                file_dt_s: first.dt,
+            },
+        ));
     }
     let format = if first.binary {
         Format::Uff58Binary
@@ -1090,18 +1090,18 @@ pub(crate) fn check_writable(rec: &RecordFile) -> Result<(), String> {
                 return Err(format!("channel #{} unit '{u}' would not read back", i + 1));
             }
         }
-        if let Some(node) = ch.node {
-            if !(-999_999_999..=9_999_999_999).contains(&node) {
-                return Err(format!(
-                    "channel #{} node {node} does not fit in 10 columns",
-                    i + 1
-                ));
-            }
+        if let Some(node) = ch.node
+            && !(-999_999_999..=9_999_999_999).contains(&node)
+        {
+            return Err(format!(
+                "channel #{} node {node} does not fit in 10 columns",
+                i + 1
+            ));
         }
-        if let Some(d) = ch.direction {
-            if !(-6..=6).contains(&d) {
-                return Err(format!("channel #{} direction {d} is not -6..6", i + 1));
-            }
+        if let Some(d) = ch.direction
+            && !(-6..=6).contains(&d)
+        {
+            return Err(format!("channel #{} direction {d} is not -6..6", i + 1));
         }
     }
     Ok(())

@@ -113,10 +113,10 @@ impl StructuralRule {
                 self.max_nyquist_fraction
             ));
         }
-        if let Some((lo, hi)) = self.band_hz {
-            if !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi > lo) {
-                return bad(format!("band ({lo}, {hi}) Hz is not a valid band"));
-            }
+        if let Some((lo, hi)) = self.band_hz
+            && !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi > lo)
+        {
+            return bad(format!("band ({lo}, {hi}) Hz is not a valid band"));
         }
         Ok(())
     }

@@ -708,7 +708,7 @@ impl fmt::Display for Warning {
                 spectral_radius,
             } => write!(
                 f,
-                "OKID observer was unstable (spectral radius {spectral_radius:.4}); rcond raised from {from:e} to {to:e}"
+                "OKID observer was unstable (spectral radius {spectral_radius:.4}); rcond raised from {from:.1e} to {to:.1e}"
             ),
             Warning::OrderIncreased { from, to } => write!(
                 f,
@@ -735,7 +735,7 @@ impl fmt::Display for Warning {
             ),
             Warning::NegativeRayleigh { alpha, beta } => write!(
                 f,
-                "negative Rayleigh coefficient: alpha = {alpha:e}, beta = {beta:e}"
+                "negative Rayleigh coefficient: alpha = {alpha:.4e}, beta = {beta:.4e}"
             ),
         }
     }

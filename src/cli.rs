@@ -1,0 +1,127 @@
+//! Command-line interface definitions (clap). `main.rs` parses and
+//! dispatches; each subcommand lives in [`crate::commands`].
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// frameid: simulate hammer tests on shear frames, identify M, K and R from
+/// records, and measure how well they are recovered.
+#[derive(Debug, Parser)]
+#[command(name = "frameid", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the default study (the default when no command is given).
+    Study(StudyArgs),
+    /// Simulate a hammer campaign of a scenario and write its records and truth.
+    Simulate(SimulateArgs),
+    /// Identify modal parameters and M, K, R from records or a realization.
+    Identify(IdentifyArgs),
+}
+
+/// Record file format written by `simulate`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RecordFormat {
+    /// CSV: `time,force,acc1,...`
+    Csv,
+    /// Universal File Format dataset 58, ASCII
+    Uff,
+    /// Universal File Format dataset 58b, binary
+    UffBinary,
+}
+
+/// Acquisition model override for `simulate`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum AcquisitionArg {
+    /// Analyzer chain: band-limited records
+    Analyzer,
+    /// Force held per sample (zero-order hold)
+    Held,
+}
+
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// Scenario file (TOML)
+    pub scenario: PathBuf,
+    /// Output directory (created if missing)
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Number of hits (overrides the scenario)
+    #[arg(long)]
+    pub hits: Option<usize>,
+    /// Noise as a fraction of each channel's RMS (overrides the scenario)
+    #[arg(long)]
+    pub noise: Option<f64>,
+    /// Random seed
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Record file format
+    #[arg(long, value_enum, default_value_t = RecordFormat::Csv)]
+    pub format: RecordFormat,
+    /// Acquisition model (overrides the scenario)
+    #[arg(long, value_enum)]
+    pub acquisition: Option<AcquisitionArg>,
+}
+
+/// Intersample assumption for the discrete-to-continuous conversion.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum IntersampleArg {
+    /// Band-limited records (spectrum analyzer): impulse invariance
+    Bandlimited,
+    /// Input held over each sample (the paper's assumption)
+    Zoh,
+}
+
+impl From<IntersampleArg> for ident::Intersample {
+    fn from(a: IntersampleArg) -> Self {
+        match a {
+            IntersampleArg::Bandlimited => ident::Intersample::Bandlimited,
+            IntersampleArg::Zoh => ident::Intersample::Zoh,
+        }
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct IdentifyArgs {
+    /// Record files, one per hit (CSV or UFF58, detected from the content)
+    #[arg(
+        required_unless_present = "realization",
+        conflicts_with = "realization"
+    )]
+    pub files: Vec<PathBuf>,
+    /// A discrete realization instead of records: JSON with `dt` (or `dt_s`), `A`, `B`, `C`, `D` (arrays of rows)
+    #[arg(long)]
+    pub realization: Option<PathBuf>,
+    /// Input channel(s), comma separated: a name (`force`), `node:dir` (UFF, e.g. `1:+X`), `id:TEXT` or `#k`
+    #[arg(long, default_value = "force")]
+    pub input: String,
+    /// Output channels in DOF order, comma separated (default: every channel but the inputs, in file order)
+    #[arg(long)]
+    pub outputs: Option<String>,
+    /// Collocated force/accelerometer pair OUT:IN, zero-based indices among the outputs and inputs or channel names (default: first output with first input)
+    #[arg(long)]
+    pub collocated: Option<String>,
+    /// Model order (state dimension; default: automatic)
+    #[arg(long)]
+    pub order: Option<usize>,
+    /// OKID observer order (default: automatic, BIC)
+    #[arg(long)]
+    pub observer_order: Option<usize>,
+    /// Intersample assumption
+    #[arg(long, value_enum, default_value_t = IntersampleArg::Bandlimited)]
+    pub intersample: IntersampleArg,
+    /// Sampling rate for records without a time column, Hz
+    #[arg(long)]
+    pub fs: Option<f64>,
+    /// Write the result as JSON on standard output
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Args, Default)]
+pub struct StudyArgs {}

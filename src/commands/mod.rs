@@ -1,0 +1,5 @@
+//! One module per subcommand. Each takes its parsed arguments and returns
+//! `anyhow::Result`; errors carry the file, line or field and what is wrong.
+
+pub mod identify;
+pub mod simulate;
