@@ -22,6 +22,10 @@ pub enum Command {
     Simulate(SimulateArgs),
     /// Identify modal parameters and M, K, R from records or a realization.
     Identify(IdentifyArgs),
+    /// Monte Carlo sweep over noise levels: simulate, identify and score many campaigns.
+    Sweep(SweepArgs),
+    /// Join the directories of a sharded sweep into what one run gives.
+    Merge(MergeArgs),
 }
 
 /// Record file format written by `simulate`.
@@ -125,3 +129,37 @@ pub struct IdentifyArgs {
 
 #[derive(Debug, Args, Default)]
 pub struct StudyArgs {}
+
+#[derive(Debug, Args)]
+pub struct SweepArgs {
+    /// Scenario file (TOML); its [sweep] table gives the defaults
+    pub scenario: PathBuf,
+    /// Output directory: trials.csv, summary.json, sweep.json
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Noise levels, comma separated fractions of each channel's RMS (e.g. 0,0.01,0.05)
+    #[arg(long, value_delimiter = ',')]
+    pub noise: Option<Vec<f64>>,
+    /// Trials per noise level (and axis value)
+    #[arg(long)]
+    pub trials: Option<usize>,
+    /// Base seed
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Worker threads (default: all cores); results do not depend on it
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Run only part K of N of the trials (e.g. 2/4); join the parts with `frameid merge`
+    #[arg(long)]
+    pub shard: Option<String>,
+}
+
+#[derive(Debug, Args)]
+pub struct MergeArgs {
+    /// Shard directories written by `frameid sweep --shard`
+    #[arg(required = true)]
+    pub dirs: Vec<PathBuf>,
+    /// Output directory
+    #[arg(long)]
+    pub out: PathBuf,
+}

@@ -4,8 +4,10 @@
 
 pub mod cli;
 pub mod commands;
+pub mod experiment;
 pub mod format;
 pub mod fsutil;
 pub mod records;
 pub mod scenario;
+pub mod sweep;
 pub mod truth;

@@ -13,6 +13,8 @@ fn main() -> ExitCode {
         Command::Study(_) => Err(anyhow::anyhow!("the default study is not available yet")),
         Command::Simulate(args) => commands::simulate::run(&args),
         Command::Identify(args) => commands::identify::run(&args),
+        Command::Sweep(args) => commands::sweep::run(&args),
+        Command::Merge(args) => commands::sweep::merge(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

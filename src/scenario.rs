@@ -25,6 +25,129 @@ pub struct Scenario {
     #[serde(default)]
     pub dashpots: Vec<Dashpot>,
     pub campaign: CampaignSettings,
+    #[serde(default)]
+    pub identification: IdentificationSettings,
+    #[serde(default)]
+    pub sweep: SweepSettings,
+}
+
+/// How the campaign is identified (defaults follow the acquisition).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IdentificationSettings {
+    /// `zoh` or `bandlimited`; default: `zoh` for held records, `bandlimited`
+    /// for analyzer records.
+    #[serde(default)]
+    pub intersample: Option<IntersampleSetting>,
+    /// Model order (state dimension); default automatic.
+    #[serde(default)]
+    pub order: Option<usize>,
+    /// OKID observer order; default automatic.
+    #[serde(default)]
+    pub observer_order: Option<usize>,
+}
+
+/// Intersample assumption as written in scenario files.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum IntersampleSetting {
+    Zoh,
+    Bandlimited,
+}
+
+impl From<IntersampleSetting> for ident::Intersample {
+    fn from(s: IntersampleSetting) -> Self {
+        match s {
+            IntersampleSetting::Zoh => ident::Intersample::Zoh,
+            IntersampleSetting::Bandlimited => ident::Intersample::Bandlimited,
+        }
+    }
+}
+
+/// A Monte Carlo sweep over noise levels (and optionally a second axis).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSettings {
+    /// Noise levels, fractions of each channel's RMS.
+    #[serde(default = "default_noise_levels")]
+    pub noise: Vec<f64>,
+    /// Trials (simulated campaigns) per noise level and axis value.
+    #[serde(default = "default_trials")]
+    pub trials: usize,
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Optional second axis.
+    #[serde(default)]
+    pub axis: Option<SweepAxis>,
+}
+
+fn default_noise_levels() -> Vec<f64> {
+    vec![0.0, 0.005, 0.01, 0.02, 0.05]
+}
+fn default_trials() -> usize {
+    20
+}
+fn default_seed() -> u64 {
+    1
+}
+
+impl Default for SweepSettings {
+    fn default() -> Self {
+        SweepSettings {
+            noise: default_noise_levels(),
+            trials: default_trials(),
+            seed: default_seed(),
+            axis: None,
+        }
+    }
+}
+
+/// A second sweep axis: one setting and the values it takes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepAxis {
+    pub setting: AxisSetting,
+    pub values: Vec<AxisValue>,
+}
+
+/// Settings a sweep can vary besides the noise level.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AxisSetting {
+    /// Hits per campaign.
+    Hits,
+    /// Hammer pulse duration, s.
+    PulseDurationS,
+    /// Intersample assumption of the identification (`zoh`, `bandlimited`).
+    Intersample,
+}
+
+/// A value of a sweep axis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum AxisValue {
+    Number(f64),
+    Text(String),
+}
+
+impl std::fmt::Display for AxisValue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            AxisValue::Number(x) => write!(f, "{x}"),
+            AxisValue::Text(t) => write!(f, "{t}"),
+        }
+    }
+}
+
+impl AxisSetting {
+    /// The name used in files and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            AxisSetting::Hits => "hits",
+            AxisSetting::PulseDurationS => "pulse_duration_s",
+            AxisSetting::Intersample => "intersample",
+        }
+    }
 }
 
 fn no_damping() -> DampingSpec {
@@ -155,6 +278,110 @@ impl Scenario {
     pub fn simulator(&self, model: Model) -> Result<Simulator, SimError> {
         Simulator::new(model, self.campaign.clone()).map_err(|e| prefix("campaign.", e))
     }
+
+    /// The intersample assumption: as set, else from the acquisition.
+    pub fn intersample(&self) -> ident::Intersample {
+        match self.identification.intersample {
+            Some(s) => s.into(),
+            None => match self.campaign.acquisition {
+                sim::Acquisition::Held => ident::Intersample::Zoh,
+                sim::Acquisition::Analyzer(_) => ident::Intersample::Bandlimited,
+            },
+        }
+    }
+
+    /// The identifier configured by the `[identification]` table, with the
+    /// hit floor's accelerometer as the collocated output.
+    pub fn identifier(&self) -> ident::Identifier {
+        let mut id = ident::Identifier::default()
+            .intersample(self.intersample())
+            .collocated(self.campaign.hammer.floor - 1, 0);
+        if let Some(n) = self.identification.order {
+            id = id.order(ident::ModelOrder::Fixed(n));
+        }
+        if let Some(p) = self.identification.observer_order {
+            id = id.observer_order(ident::ObserverOrder::Fixed(p));
+        }
+        id
+    }
+
+    /// Checks the `[identification]` and `[sweep]` tables.
+    pub fn check_study_settings(&self) -> Result<(), SimError> {
+        let bad = |field: &str, problem: String| SimError::Invalid {
+            field: field.into(),
+            problem,
+        };
+        if self.identification.order == Some(0) {
+            return Err(bad("identification.order", "must be at least 2".into()));
+        }
+        if self.identification.observer_order == Some(0) {
+            return Err(bad(
+                "identification.observer_order",
+                "must be at least 1".into(),
+            ));
+        }
+        self.identifier()
+            .check()
+            .map_err(|e| bad("identification", e.to_string()))?;
+        let sw = &self.sweep;
+        if sw.noise.is_empty() {
+            return Err(bad("sweep.noise", "needs at least one noise level".into()));
+        }
+        for (i, &n) in sw.noise.iter().enumerate() {
+            if !(n.is_finite() && n >= 0.0) {
+                return Err(bad(
+                    &format!("sweep.noise[{i}]"),
+                    format!("must be a fraction >= 0, got {n}"),
+                ));
+            }
+            if sw.noise[..i].contains(&n) {
+                return Err(bad(
+                    &format!("sweep.noise[{i}]"),
+                    format!("noise level {n} appears twice"),
+                ));
+            }
+        }
+        if sw.trials == 0 {
+            return Err(bad("sweep.trials", "must be at least 1".into()));
+        }
+        if let Some(axis) = &sw.axis {
+            if axis.values.is_empty() {
+                return Err(bad("sweep.axis.values", "needs at least one value".into()));
+            }
+            for (i, v) in axis.values.iter().enumerate() {
+                let field = format!("sweep.axis.values[{i}]");
+                match (axis.setting, v) {
+                    (AxisSetting::Hits, AxisValue::Number(x)) if *x >= 1.0 && x.fract() == 0.0 => {}
+                    (AxisSetting::Hits, _) => {
+                        return Err(bad(
+                            &field,
+                            format!("hits must be a whole number >= 1, got {v}"),
+                        ));
+                    }
+                    (AxisSetting::PulseDurationS, AxisValue::Number(x))
+                        if x.is_finite() && *x > 0.0 => {}
+                    (AxisSetting::PulseDurationS, _) => {
+                        return Err(bad(
+                            &field,
+                            format!("a pulse duration must be a number of seconds > 0, got {v}"),
+                        ));
+                    }
+                    (AxisSetting::Intersample, AxisValue::Text(t))
+                        if t == "zoh" || t == "bandlimited" => {}
+                    (AxisSetting::Intersample, _) => {
+                        return Err(bad(
+                            &field,
+                            format!("intersample must be \"zoh\" or \"bandlimited\", got {v}"),
+                        ));
+                    }
+                }
+                if axis.values[..i].contains(v) {
+                    return Err(bad(&field, format!("value {v} appears twice")));
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 fn structure_field(matrix: &str) -> String {
@@ -197,6 +424,7 @@ impl LoadedScenario {
         let model = scenario.model().map_err(invalid)?;
         // Build the simulator once to check the campaign settings.
         scenario.simulator(model.clone()).map_err(invalid)?;
+        scenario.check_study_settings().map_err(invalid)?;
         Ok(LoadedScenario {
             path: path.to_path_buf(),
             scenario,

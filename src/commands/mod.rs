@@ -3,3 +3,4 @@
 
 pub mod identify;
 pub mod simulate;
+pub mod sweep;
