@@ -45,6 +45,10 @@ use crate::record::{self, DataError, Record};
 use crate::statespace::StateSpace;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
+
+mod stabilization;
+pub use stabilization::{Stability, StabilizationCriteria, StabilizationPoint};
+
 use std::fmt;
 
 /// Consistency `||W W^T|| / ||W Lc W^T||` above which a warning is issued.
@@ -287,8 +291,9 @@ impl ValidIdentifier {
         }
     }
 
-    /// Runs the whole chain on `records`.
-    pub fn identify(&self, records: &[Record], dt_s: f64) -> Result<Identification, Error> {
+    /// OKID and the ERA decomposition of the Markov parameters: everything
+    /// before a model order is chosen.
+    fn decompose(&self, records: &[Record], dt_s: f64) -> Result<Decomposed, Error> {
         record::validate_dt(dt_s)?;
         let shape = record::validate(records)?;
         let (m, r) = (shape.outputs, shape.inputs);
@@ -338,6 +343,26 @@ impl ValidIdentifier {
             ..era_base
         };
         let dec = era_params.decompose(&okid.markov, dt_s)?;
+        Ok(Decomposed {
+            outputs: m,
+            state_limit,
+            okid,
+            era_params,
+            dec,
+            warnings,
+        })
+    }
+
+    /// Runs the whole chain on `records`.
+    pub fn identify(&self, records: &[Record], dt_s: f64) -> Result<Identification, Error> {
+        let Decomposed {
+            outputs: m,
+            okid,
+            era_params,
+            dec,
+            mut warnings,
+            ..
+        } = self.decompose(records, dt_s)?;
         let candidates = match era_params.order {
             ModelOrder::Fixed(n) => vec![n],
             ModelOrder::Auto { max } => dec.orders_by_gap(max),
@@ -545,6 +570,16 @@ fn short_pretriggers(records: &[Record], leads: usize) -> Vec<Warning> {
             })
         })
         .collect()
+}
+
+/// OKID's result and the ERA decomposition, before the order is chosen.
+struct Decomposed {
+    outputs: usize,
+    state_limit: usize,
+    okid: crate::okid::Okid,
+    era_params: EraParams,
+    dec: crate::era::Decomposition,
+    warnings: Vec<Warning>,
 }
 
 /// What OKID did.
