@@ -26,6 +26,8 @@ pub enum Command {
     Sweep(SweepArgs),
     /// Join the directories of a sharded sweep into what one run gives.
     Merge(MergeArgs),
+    /// Render the HTML accuracy report of one or more sweep directories.
+    Report(ReportArgs),
 }
 
 /// Record file format written by `simulate`.
@@ -127,8 +129,42 @@ pub struct IdentifyArgs {
     pub json: bool,
 }
 
-#[derive(Debug, Args, Default)]
-pub struct StudyArgs {}
+#[derive(Debug, Args)]
+pub struct StudyArgs {
+    /// Output folder (sweeps of each scenario and report.html)
+    #[arg(long, default_value = "frameid-study")]
+    pub out: PathBuf,
+    /// Trials per noise level (default: the scenarios' [sweep] tables)
+    #[arg(long)]
+    pub trials: Option<usize>,
+    /// Worker threads (default: all cores)
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+impl Default for StudyArgs {
+    /// What `frameid` with no arguments runs.
+    fn default() -> Self {
+        StudyArgs {
+            out: PathBuf::from("frameid-study"),
+            trials: None,
+            threads: None,
+        }
+    }
+}
+
+#[derive(Debug, Args)]
+pub struct ReportArgs {
+    /// Sweep directories (each with summary.json), one study each
+    #[arg(required = true)]
+    pub dirs: Vec<PathBuf>,
+    /// The HTML file to write
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Report title
+    #[arg(long, default_value = "frameid accuracy report")]
+    pub title: String,
+}
 
 #[derive(Debug, Args)]
 pub struct SweepArgs {

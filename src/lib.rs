@@ -8,6 +8,8 @@ pub mod experiment;
 pub mod format;
 pub mod fsutil;
 pub mod records;
+pub mod report;
+pub mod representative;
 pub mod scenario;
 pub mod sweep;
 pub mod truth;

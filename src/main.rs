@@ -10,11 +10,12 @@ use frameid::commands;
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command.unwrap_or(Command::Study(StudyArgs::default())) {
-        Command::Study(_) => Err(anyhow::anyhow!("the default study is not available yet")),
+        Command::Study(args) => commands::study::run(&args),
         Command::Simulate(args) => commands::simulate::run(&args),
         Command::Identify(args) => commands::identify::run(&args),
         Command::Sweep(args) => commands::sweep::run(&args),
         Command::Merge(args) => commands::sweep::merge(&args),
+        Command::Report(args) => commands::report::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -375,8 +375,8 @@ fn find<'a>(p: &'a Panel, key: &str) -> Option<&'a Quantity> {
     p.quantities.iter().find(|q| q.key == key)
 }
 
-const MKR: &str = "damping_mkr_fro";
-const RAYLEIGH: &str = "damping_rayleigh_fro";
+const MKR: &str = "damping_mkr_err";
+const RAYLEIGH: &str = "damping_rayleigh_err";
 
 fn accuracy(out: &mut String, sid: &str, acc: &Accuracy) -> Result<(), ReportError> {
     w!(

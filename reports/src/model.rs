@@ -186,7 +186,7 @@ pub struct FailureCount {
 /// One accuracy measure over the noise levels of a panel.
 #[derive(Serialize, Deserialize, Debug, Clone)]
 pub struct Quantity {
-    /// Stable key, e.g. `damping_mkr_fro`; the same quantity has the same key
+    /// Stable key, e.g. `damping_mkr_err`; the same quantity has the same key
     /// in every panel.
     pub key: String,
     pub label: String,

@@ -161,7 +161,7 @@ fn both_damping_estimates_share_one_chart_per_panel() {
             let rayleigh = panel
                 .quantities
                 .iter()
-                .find(|q| q.key == "damping_rayleigh_fro")
+                .find(|q| q.key == "damping_rayleigh_err")
                 .unwrap();
             assert_eq!(
                 group(svg, "rayleigh-bound", "line").is_some(),

@@ -440,7 +440,7 @@ fn random_report(seed: u64) -> Report {
                             .collect(),
                         quantities: (0..rng.below(5))
                             .map(|_| Quantity {
-                                key: ["f1_rel", "damping_mkr_fro", "damping_rayleigh_fro", "x", ""]
+                                key: ["f1_rel", "damping_mkr_err", "damping_rayleigh_err", "x", ""]
                                     [rng.below(5)]
                                 .into(),
                                 label: string(&mut rng),

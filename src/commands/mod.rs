@@ -2,5 +2,7 @@
 //! `anyhow::Result`; errors carry the file, line or field and what is wrong.
 
 pub mod identify;
+pub mod report;
 pub mod simulate;
+pub mod study;
 pub mod sweep;

@@ -64,9 +64,22 @@ pub fn run_sweep(
         shard,
     };
     sweep::write_dir(out, &manifest, &names, &rows)?;
-    Ok(shard
-        .is_none()
-        .then(|| sweep::summarize(plan, &names, &rows)))
+    if shard.is_some() {
+        return Ok(None);
+    }
+    write_representative(&plan.scenario, &truth, plan.seed, out)?;
+    Ok(Some(sweep::summarize(plan, &names, &rows)))
+}
+
+/// Writes `representative.json` (the report's example campaign).
+pub fn write_representative(
+    scenario: &crate::scenario::Scenario,
+    truth: &TrueModel,
+    seed: u64,
+    out: &Path,
+) -> Result<()> {
+    let rep = crate::representative::representative(scenario, truth, seed)?;
+    crate::fsutil::write_json(&out.join("representative.json"), &rep)
 }
 
 pub fn run(args: &SweepArgs) -> Result<()> {
@@ -105,6 +118,9 @@ pub fn run(args: &SweepArgs) -> Result<()> {
 pub fn merge(args: &MergeArgs) -> Result<()> {
     let dirs: Vec<&Path> = args.dirs.iter().map(|d| d.as_path()).collect();
     let summary = sweep::merge(&dirs, &args.out)?;
+    let truth = TrueModel::new(summary.plan.scenario.model().map_err(|e| anyhow!("{e}"))?)
+        .map_err(|e| anyhow!("{e}"))?;
+    write_representative(&summary.plan.scenario, &truth, summary.plan.seed, &args.out)?;
     println!(
         "merged {} directories -> {}",
         dirs.len(),

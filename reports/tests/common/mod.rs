@@ -256,7 +256,7 @@ pub fn panel(axis_value: Option<&str>, levels: &[f64], severity: f64) -> Panel {
             ),
             stiffness,
             quantity(
-                ["damping_mkr_fro", "MKR ‖R̂ − R‖ / ‖R‖", "damping matrices"],
+                ["damping_mkr_err", "MKR ‖R̂ − R‖ / ‖R‖", "damping matrices"],
                 levels,
                 0.8,
                 900.0 * severity,
@@ -264,7 +264,7 @@ pub fn panel(axis_value: Option<&str>, levels: &[f64], severity: f64) -> Panel {
             ),
             quantity(
                 [
-                    "damping_rayleigh_fro",
+                    "damping_rayleigh_err",
                     "Rayleigh ‖R̂ − R‖ / ‖R‖",
                     "damping matrices",
                 ],

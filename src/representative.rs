@@ -1,0 +1,251 @@
+//! One representative campaign of a scenario, identified and compared with
+//! the truth, as the report shows it: time histories (the paper's Figs.
+//! 2-3), Hankel singular values (Fig. 4), mode shapes (Fig. 5), a
+//! stabilization diagram, measured against identified FRFs, and tables.
+
+use anyhow::{Result, anyhow};
+use ident::pipeline::{Stability, StabilizationCriteria};
+use nalgebra::DMatrix;
+use num_complex::Complex64;
+use reports::model as rm;
+use rustfft::FftPlanner;
+use serde::{Deserialize, Serialize};
+use sim::{Campaign, Model, derive_seed};
+
+use crate::experiment::{TrueModel, campaign_records, noise_at};
+use crate::scenario::Scenario;
+
+/// Stream tag for the representative campaign's seed.
+const REPRESENTATIVE_TAG: u64 = 0x5245_5052;
+
+/// The representative campaign's data (`representative.json`).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct RepresentativeFile {
+    pub seed: u64,
+    pub representative: rm::Representative,
+}
+
+/// Largest model order of the stabilization diagram.
+const STABILIZATION_MAX_ORDER: usize = 24;
+
+/// Simulates the representative campaign (seed derived from the sweep
+/// seed, the scenario's own noise) and identifies it.
+pub fn representative(
+    scenario: &Scenario,
+    truth: &TrueModel,
+    sweep_seed: u64,
+) -> Result<RepresentativeFile> {
+    let seed = derive_seed(sweep_seed, REPRESENTATIVE_TAG);
+    let simulator = scenario
+        .simulator(truth.model.clone())
+        .map_err(|e| anyhow!("{e}"))?;
+    let noise = noise_at(&scenario.campaign.noise, scenario.campaign.noise.fraction);
+    let campaign = simulator.simulate_with_noise(seed, &noise);
+    let records = campaign_records(&campaign);
+    let identifier = scenario.identifier();
+    let id = identifier
+        .identify(&records, campaign.dt_s)
+        .map_err(|e| anyhow!("representative campaign of {}: {e}", scenario.name))?;
+    let stabilization = identifier
+        .check()
+        .and_then(|v| {
+            v.stabilization(
+                &records,
+                campaign.dt_s,
+                STABILIZATION_MAX_ORDER,
+                StabilizationCriteria::default(),
+            )
+        })
+        .map_err(|e| anyhow!("stabilization diagram of {}: {e}", scenario.name))?;
+    let n = truth.dofs();
+    let input = scenario.campaign.hammer.floor - 1;
+    let modes = (0..n)
+        .map(|j| rm::ModeShape {
+            frequency_hz: id.frequencies_hz[j],
+            damping_ratio: id.damping_ratios[j],
+            shape: id
+                .mode_shapes
+                .column(j)
+                .iter()
+                .map(|z| [z.re, z.im])
+                .collect(),
+            truth: Some(
+                truth.modal.mode_shapes[j]
+                    .iter()
+                    .map(|z| [z.re, z.im])
+                    .collect(),
+            ),
+        })
+        .collect();
+    let stabilization = stabilization
+        .iter()
+        .map(|p| rm::StabilizationPoint {
+            order: p.order,
+            frequency_hz: p.frequency_hz,
+            damping_ratio: p.damping_ratio,
+            status: match p.status {
+                Stability::New => rm::Stability::New,
+                Stability::Frequency => rm::Stability::Frequency,
+                Stability::Damping => rm::Stability::Damping,
+                Stability::Stable => rm::Stability::Stable,
+            },
+        })
+        .collect();
+    let identified = Model {
+        mass: id.mass.clone(),
+        stiffness: id.stiffness.clone(),
+        damping: id.damping_rayleigh.clone(),
+    };
+    let frf = frfs(&campaign, &identified, &truth.model, input);
+    Ok(RepresentativeFile {
+        seed,
+        representative: rm::Representative {
+            noise_fraction: noise.fraction,
+            dt_s: campaign.dt_s,
+            hit_floor: campaign.hit_floor,
+            force: campaign.hits[0].force.clone(),
+            accelerations: campaign.hits[0].accelerations.clone(),
+            hankel_singular_values: id.hankel_singular_values.iter().copied().collect(),
+            order: id.model_order,
+            modes,
+            stabilization,
+            frf,
+            tables: tables(&id, truth),
+            warnings: id.warnings.iter().map(ToString::to_string).collect(),
+        },
+    })
+}
+
+/// Acceleration FRF of a model at `omega` (rad/s) for a force at `input`:
+/// `-omega^2 (K - omega^2 M + i omega R)^-1 e_input`.
+pub fn model_frf(model: &Model, input: usize, omega: f64) -> Vec<Complex64> {
+    let n = model.dofs();
+    let q = DMatrix::from_fn(n, n, |i, j| {
+        Complex64::new(
+            model.stiffness[(i, j)] - omega * omega * model.mass[(i, j)],
+            omega * model.damping[(i, j)],
+        )
+    });
+    let mut e = DMatrix::zeros(n, 1);
+    e[(input, 0)] = Complex64::new(1.0, 0.0);
+    match q.lu().solve(&e) {
+        Some(x) => x.iter().map(|v| v * (-omega * omega)).collect(),
+        None => vec![Complex64::new(f64::NAN, f64::NAN); n],
+    }
+}
+
+/// H1 estimates from all hits (sum Y U* / sum |U|^2) against the
+/// identified and true models, up to 0.8 of the Nyquist frequency.
+fn frfs(c: &Campaign, identified: &Model, truth: &Model, input: usize) -> Vec<rm::Frf> {
+    let n = c.hits[0].force.len();
+    let fft = FftPlanner::<f64>::new().plan_fft_forward(n);
+    let spectrum = |x: &[f64]| {
+        let mut b: Vec<Complex64> = x.iter().map(|&v| Complex64::new(v, 0.0)).collect();
+        fft.process(&mut b);
+        b
+    };
+    let fs = 1.0 / c.dt_s;
+    let kmax = ((0.8 * fs / 2.0) / (fs / n as f64)).floor() as usize;
+    let bins: Vec<usize> = (1..=kmax.min(n / 2)).collect();
+    let dofs = c.hits[0].accelerations.len();
+    let mut num = vec![vec![Complex64::new(0.0, 0.0); bins.len()]; dofs];
+    let mut den = vec![0.0; bins.len()];
+    for h in &c.hits {
+        let u = spectrum(&h.force);
+        for (b, &k) in bins.iter().enumerate() {
+            den[b] += u[k].norm_sqr();
+        }
+        for (i, acc) in h.accelerations.iter().enumerate() {
+            let y = spectrum(acc);
+            for (b, &k) in bins.iter().enumerate() {
+                num[i][b] += y[k] * u[k].conj();
+            }
+        }
+    }
+    let freqs: Vec<f64> = bins.iter().map(|&k| k as f64 * fs / n as f64).collect();
+    let model_at = |m: &Model| -> Vec<Vec<Complex64>> {
+        freqs
+            .iter()
+            .map(|f| model_frf(m, input, 2.0 * std::f64::consts::PI * f))
+            .collect()
+    };
+    let (hid, htrue) = (model_at(identified), model_at(truth));
+    let pair = |z: Complex64| [z.re, z.im];
+    (0..dofs)
+        .map(|i| rm::Frf {
+            output: format!("acc{} / force", i + 1),
+            frequency_hz: freqs.clone(),
+            measured: (0..bins.len()).map(|b| pair(num[i][b] / den[b])).collect(),
+            identified: hid.iter().map(|h| pair(h[i])).collect(),
+            truth: Some(htrue.iter().map(|h| pair(h[i])).collect()),
+        })
+        .collect()
+}
+
+fn matrix_rows(prefix: &str, est: &DMatrix<f64>, truth: &DMatrix<f64>) -> Vec<rm::ComparisonRow> {
+    let n = truth.nrows();
+    let mut rows = Vec::new();
+    for i in 0..n {
+        for j in i..n {
+            rows.push(rm::ComparisonRow {
+                label: format!("{prefix}{}{}", i + 1, j + 1),
+                truth: truth[(i, j)],
+                identified: est[(i, j)],
+            });
+        }
+    }
+    rows
+}
+
+fn tables(id: &ident::Identification, truth: &TrueModel) -> Vec<rm::ComparisonTable> {
+    let n = truth.dofs();
+    let table = |title: &str, unit: &str, rows| rm::ComparisonTable {
+        title: title.into(),
+        unit: unit.into(),
+        rows,
+    };
+    vec![
+        table(
+            "Natural frequencies",
+            "Hz",
+            (0..n)
+                .map(|j| rm::ComparisonRow {
+                    label: format!("f{}", j + 1),
+                    truth: truth.modal.frequencies_hz[j],
+                    identified: id.frequencies_hz[j],
+                })
+                .collect(),
+        ),
+        table(
+            "Damping ratios",
+            "%",
+            (0..n)
+                .map(|j| rm::ComparisonRow {
+                    label: format!("xi{}", j + 1),
+                    truth: 100.0 * truth.modal.damping_ratios[j],
+                    identified: 100.0 * id.damping_ratios[j],
+                })
+                .collect(),
+        ),
+        table(
+            "Mass matrix M",
+            "kg",
+            matrix_rows("M", &id.mass, &truth.model.mass),
+        ),
+        table(
+            "Stiffness matrix K",
+            "N/m",
+            matrix_rows("K", &id.stiffness, &truth.model.stiffness),
+        ),
+        table(
+            "Damping matrix, MKR (eq. 30)",
+            "N s/m",
+            matrix_rows("R", &id.damping_mkr, &truth.model.damping),
+        ),
+        table(
+            "Damping matrix, Rayleigh alpha M + beta K (eq. 16-19)",
+            "N s/m",
+            matrix_rows("R", &id.damping_rayleigh, &truth.model.damping),
+        ),
+    ]
+}
