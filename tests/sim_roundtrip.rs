@@ -5,10 +5,10 @@
 
 use std::path::Path;
 
+use frameid::experiment::{campaign_records, rel_fro};
 use frameid::scenario::LoadedScenario;
-use ident::{Identification, Identifier, Intersample, Record};
-use nalgebra::DMatrix;
-use sim::{Acquisition, Campaign, Model, NoiseSettings};
+use ident::{Identification, Identifier, Intersample};
+use sim::{Acquisition, Model, NoiseSettings};
 
 fn scenario(name: &str) -> LoadedScenario {
     LoadedScenario::load(
@@ -17,22 +17,6 @@ fn scenario(name: &str) -> LoadedScenario {
             .join(name),
     )
     .unwrap()
-}
-
-fn records(c: &Campaign) -> Vec<Record> {
-    c.hits
-        .iter()
-        .map(|h| {
-            let n = h.force.len();
-            let inputs = DMatrix::from_row_slice(1, n, &h.force);
-            let outputs = DMatrix::from_fn(h.accelerations.len(), n, |i, k| h.accelerations[i][k]);
-            Record::new(inputs, outputs)
-        })
-        .collect()
-}
-
-fn rel_fro(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
-    (a - b).norm() / b.norm()
 }
 
 #[derive(Debug)]
@@ -82,7 +66,7 @@ fn run(
     let campaign = sim.simulate_with_noise(seed, &noise);
     let id = Identifier::default()
         .intersample(intersample)
-        .identify(&records(&campaign), campaign.dt_s)
+        .identify(&campaign_records(&campaign), campaign.dt_s)
         .unwrap();
     errors(&id, &s.model)
 }
