@@ -6,6 +6,7 @@ pub mod cli;
 pub mod commands;
 pub mod format;
 pub mod fsutil;
+pub mod quality;
 pub mod records;
 pub mod scenario;
 pub mod truth;
