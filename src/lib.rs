@@ -10,3 +10,4 @@ pub mod quality;
 pub mod records;
 pub mod scenario;
 pub mod truth;
+pub mod uncertainty;
