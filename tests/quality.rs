@@ -517,3 +517,55 @@ fn a_campaign_of_bad_hits_only_leaves_nothing_to_drop() {
         "{out}"
     );
 }
+
+mod props {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Sample values that stress the checks: zeros, repeats, extremes,
+    /// tiny and huge magnitudes.
+    fn value() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            Just(0.0),
+            Just(1.0),
+            Just(-1.0),
+            Just(1e300),
+            Just(-1e-300),
+            -10.0..10.0f64,
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+        /// Any finite record gets a result without panicking, with flags
+        /// that match `passed`.
+        #[test]
+        fn any_finite_record_is_assessed(
+            n in 1usize..200,
+            outputs in 1usize..4,
+            seed in proptest::collection::vec(value(), 1..64),
+            dt_s in prop_oneof![Just(1.0 / 64.0), Just(1e-6), Just(10.0)],
+        ) {
+            let at = |k: usize, c: usize| seed[(k * 7 + c * 13) % seed.len()];
+            let r = Record::new(
+                DMatrix::from_fn(1, n, |_, k| at(k, 0)),
+                DMatrix::from_fn(outputs, n, |i, k| at(k, i + 1)),
+            );
+            let ins = vec!["force".to_string()];
+            let outs: Vec<String> = (0..outputs).map(|i| format!("acc{}", i + 1)).collect();
+            let declared = QualitySettings {
+                force_range: Some(1.0),
+                acceleration_range: Some(5.0),
+                ..Default::default()
+            };
+            for settings in [QualitySettings::default(), declared] {
+                let q = assess_hit(&r, dt_s, &ins, &outs, &settings);
+                prop_assert_eq!(q.channels.len(), 1 + outputs);
+                prop_assert_eq!(q.passed(), q.flags.iter().all(|f| !f.check.fails_hit()));
+                prop_assert!(q.flags.iter().all(|f| !f.message.is_empty()));
+                // Serializes (non-finite numbers of absurd inputs as null).
+                prop_assert!(serde_json::to_string(&q).is_ok());
+            }
+        }
+    }
+}
