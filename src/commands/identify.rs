@@ -223,9 +223,12 @@ fn identify_records(args: &IdentifyArgs) -> Result<IdentifyReport> {
     };
     let hit_quality = quality::assess_campaign(&all, &QualitySettings::default());
     let keep = screen_hits(&hit_quality, args)?;
-    let dropped: Vec<String> = (0..all.records.len())
+    let dropped_idx: Vec<usize> = (0..all.records.len())
         .filter(|i| !keep.contains(i))
-        .map(|i| hit_quality[i].file.clone())
+        .collect();
+    let dropped: Vec<String> = dropped_idx
+        .iter()
+        .map(|&i| hit_quality[i].file.clone())
         .collect();
     let c = all.subset(&keep);
     check_orders(&c, args)?;
@@ -261,9 +264,9 @@ fn identify_records(args: &IdentifyArgs) -> Result<IdentifyReport> {
     // the identification's with hits named by file.
     let mut warnings = quality_warnings(&hit_quality);
     if !dropped.is_empty() {
-        let reasons: Vec<String> = hit_quality
+        let reasons: Vec<String> = dropped_idx
             .iter()
-            .filter(|q| dropped.contains(&q.file))
+            .map(|&i| &hit_quality[i])
             .map(|q| {
                 let checks: Vec<&str> = q.failed_checks().iter().map(|c| c.label()).collect();
                 format!("{} ({})", q.file, checks.join(", "))
