@@ -44,17 +44,19 @@ pub struct QualitySettings {
     /// but has a zero at the Nyquist frequency, and the ringing of an
     /// analyzer's decimation filter (up to 5 % of the peak for several
     /// samples, measured on the simulator's 100 dB Kaiser FIR) sits in the
-    /// transition band between fs/2.56 and fs/2, where the filter's gain is
-    /// 0.1 down to 0: after smoothing the ringing stays below 1 % of the
-    /// pulse. A second pulse of 0.1 makes the force spectrum ripple by
-    /// +-0.9 dB (20 log10 (1 + r)), the level at which the force spectrum
-    /// visibly departs from a single pulse's, and is ten times the residual
-    /// ringing, so there are no false alarms on clean pulses.
+    /// transition band between fs/2.56 and fs/2, where the smoother's gain
+    /// is 0.1 down to 0: after smoothing the ringing stays at about 1 % of
+    /// the pulse (1.3 % at most on the bundled scenarios). A second pulse
+    /// of 0.1 makes the force spectrum ripple by +-0.8 dB
+    /// (20 log10 (1 + r)), where the spectrum visibly departs from a single
+    /// pulse's, and is about ten times the residual ringing, so clean
+    /// pulses raise no false alarms.
     pub double_hit_ratio: f64,
-    /// A second pulse counts only if the smoothed force falls, between it
-    /// and the main pulse, to this fraction of the second pulse's height
-    /// (the hammer left the surface in between). A shoulder on a long pulse
-    /// is not a double hit; its spectrum is checked by `max_force_drop_db`.
+    /// A second pulse counts only if the smoothed force dips, between it
+    /// and the main pulse, to this fraction of the second pulse's height or
+    /// lower: two pulses rather than a shoulder on one long pulse (whose
+    /// spectrum `max_force_drop_db` checks). At 0.8, two pulses 3.5 samples
+    /// apart or more are resolved at the analysis rate.
     pub double_hit_valley: f64,
     /// Clipping: this many samples equal to a channel's extreme value,
     /// in a row (a flat top) or not (several flat-topped peaks). A
@@ -103,8 +105,8 @@ pub struct QualitySettings {
     /// Samples just before the hit (the force peak) left out of the noise
     /// estimate. An analyzer's linear-phase decimation filter starts the
     /// band-limited pulse before the hit: the simulator's 100 dB FIR puts
-    /// 1-4 % of the peak into the 12 samples before it and below 0.1 % more
-    /// than 20 samples before it. A guard of 20 keeps that precursor out of
+    /// 1-4 % of the peak into the 12 samples before it and about 0.1 % or
+    /// less more than 20 samples before it. A guard of 20 keeps that precursor out of
     /// the noise estimate.
     pub noise_guard_samples: usize,
     /// Fewest noise samples for an estimate: the RMS of n Gaussian samples
