@@ -127,6 +127,15 @@ pub struct IdentifyArgs {
     /// Write the result as JSON on standard output
     #[arg(long)]
     pub json: bool,
+    /// Refuse the campaign if any hit fails a quality check (double hit, clipping, long pulse, undecayed response, low SNR)
+    #[arg(long, conflicts_with = "drop_bad_hits")]
+    pub strict: bool,
+    /// Identify without the hits that fail a quality check (and say which were dropped)
+    #[arg(long)]
+    pub drop_bad_hits: bool,
+    /// Skip the error bars (jackknife over the hits: one extra identification per hit)
+    #[arg(long)]
+    pub no_uncertainty: bool,
 }
 
 #[derive(Debug, Args)]

@@ -10,8 +10,10 @@ use serde::Serialize;
 
 use crate::cli::IdentifyArgs;
 use crate::format::{matrix, sig};
+use crate::quality::{self, HitQuality, QualitySettings};
 use crate::records::{self, ChannelSpec, ReadOptions, RecordFile};
 use crate::truth::rows;
+use crate::uncertainty::{self, Uncertainty, matrix_table, plus_minus};
 
 /// A campaign read from files: one [`Record`] per file.
 #[derive(Debug, Clone)]
@@ -21,6 +23,22 @@ pub struct LoadedCampaign {
     pub input_names: Vec<String>,
     pub output_names: Vec<String>,
     pub records: Vec<Record>,
+}
+
+impl LoadedCampaign {
+    /// The campaign restricted to the hits `keep` (indices, in order).
+    pub fn subset(&self, keep: &[usize]) -> LoadedCampaign {
+        LoadedCampaign {
+            files: keep.iter().map(|&i| self.files[i].clone()).collect(),
+            records: keep.iter().map(|&i| self.records[i].clone()).collect(),
+            ..self.clone()
+        }
+    }
+
+    /// The file names as given, one per hit.
+    pub fn labels(&self) -> Vec<String> {
+        self.files.iter().map(|f| f.display().to_string()).collect()
+    }
 }
 
 /// Reads record files and picks the input and output channels.
@@ -158,7 +176,7 @@ fn identifier(args: &IdentifyArgs, collocated: (usize, usize)) -> Identifier {
 
 /// Runs the command.
 pub fn run(args: &IdentifyArgs) -> Result<()> {
-    let (result, source) = match &args.realization {
+    let report = match &args.realization {
         Some(path) => {
             let (realization, names) = read_realization(path)?;
             let collocated = match &args.collocated {
@@ -181,36 +199,10 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
                     input: collocated.1,
                 },
             };
-            (result, source)
+            IdentifyReport::new(&result, source)
         }
-        None => {
-            let c = load_campaign(&args.files, &args.input, args.outputs.as_deref(), args.fs)?;
-            let collocated = match &args.collocated {
-                Some(text) => parse_collocated(text, &c.output_names, &c.input_names)?,
-                None => (0, 0),
-            };
-            let result = identifier(args, collocated)
-                .identify(&c.records, c.dt_s)
-                .map_err(|e| {
-                    anyhow!("identification of {} failed: {e}", describe_files(&c.files))
-                })?;
-            let source = Source {
-                files: c.files.iter().map(|f| f.display().to_string()).collect(),
-                realization: false,
-                dt_s: c.dt_s,
-                hits: c.records.len(),
-                samples: c.records.iter().map(Record::len).max().unwrap_or(0),
-                inputs: c.input_names.clone(),
-                outputs: c.output_names.clone(),
-                collocated: Collocated {
-                    output: collocated.0,
-                    input: collocated.1,
-                },
-            };
-            (result, source)
-        }
+        None => identify_records(args)?,
     };
-    let report = IdentifyReport::new(&result, source);
     if args.json {
         let mut text = serde_json::to_string_pretty(&report)?;
         text.push('\n');
@@ -219,6 +211,323 @@ pub fn run(args: &IdentifyArgs) -> Result<()> {
         print!("{}", report.human());
     }
     Ok(())
+}
+
+/// Records to a report: quality checks, the hits to use, the joint
+/// identification and its error bars.
+fn identify_records(args: &IdentifyArgs) -> Result<IdentifyReport> {
+    let all = load_campaign(&args.files, &args.input, args.outputs.as_deref(), args.fs)?;
+    let collocated = match &args.collocated {
+        Some(text) => parse_collocated(text, &all.output_names, &all.input_names)?,
+        None => (0, 0),
+    };
+    let hit_quality = quality::assess_campaign(&all, &QualitySettings::default());
+    let keep = screen_hits(&hit_quality, args)?;
+    let dropped_idx: Vec<usize> = (0..all.records.len())
+        .filter(|i| !keep.contains(i))
+        .collect();
+    let dropped: Vec<String> = dropped_idx
+        .iter()
+        .map(|&i| hit_quality[i].file.clone())
+        .collect();
+    let c = all.subset(&keep);
+    check_orders(&c, args)?;
+    let id = identifier(args, collocated);
+    let result = id
+        .identify(&c.records, c.dt_s)
+        .map_err(|e| identification_error(e, &c, args, collocated))?;
+    check_modes_against_outputs(&result, &c)?;
+    let labels = c.labels();
+    let (uncertainty, uncertainty_skipped) = if args.no_uncertainty {
+        (None, Some("--no-uncertainty".to_string()))
+    } else {
+        match uncertainty::jackknife(&id, &c.records, c.dt_s, &result, &labels) {
+            Ok(u) => (Some(u), None),
+            Err(e) => (None, Some(e.to_string())),
+        }
+    };
+    let source = Source {
+        files: labels.clone(),
+        realization: false,
+        dt_s: c.dt_s,
+        hits: c.records.len(),
+        samples: c.records.iter().map(Record::len).max().unwrap_or(0),
+        inputs: c.input_names.clone(),
+        outputs: c.output_names.clone(),
+        collocated: Collocated {
+            output: collocated.0,
+            input: collocated.1,
+        },
+    };
+    let mut report = IdentifyReport::new(&result, source);
+    // Warnings: the quality checks first (every hit, dropped or not), then
+    // the identification's with hits named by file.
+    let mut warnings = quality_warnings(&hit_quality);
+    if !dropped.is_empty() {
+        let reasons: Vec<String> = dropped_idx
+            .iter()
+            .map(|&i| &hit_quality[i])
+            .map(|q| {
+                let checks: Vec<&str> = q.failed_checks().iter().map(|c| c.label()).collect();
+                format!("{} ({})", q.file, checks.join(", "))
+            })
+            .collect();
+        warnings.push(format!(
+            "dropped {} of {} hits: {}",
+            dropped.len(),
+            hit_quality.len(),
+            reasons.join("; ")
+        ));
+    }
+    warnings.extend(result.warnings.iter().map(|w| ident_warning(w, &labels)));
+    if let Some(u) = &uncertainty {
+        for f in &u.failed {
+            warnings.push(format!(
+                "uncertainty: without {} the identification fails ({}); that resample is left out",
+                f.left_out, f.error
+            ));
+        }
+    } else if let Some(reason) = &uncertainty_skipped
+        && !args.no_uncertainty
+        && c.records.len() >= uncertainty::MIN_HITS
+    {
+        warnings.push(format!("no error bars: {reason}"));
+    }
+    report.warnings = warnings;
+    report.hit_quality = hit_quality;
+    report.dropped_hits = dropped;
+    report.uncertainty = uncertainty;
+    report.uncertainty_skipped = uncertainty_skipped;
+    Ok(report)
+}
+
+/// One warning line per failed check (and note), naming the file.
+pub fn quality_warnings(hits: &[HitQuality]) -> Vec<String> {
+    hits.iter()
+        .flat_map(|q| q.flags.iter().map(move |f| format!("{}: {f}", q.file)))
+        .collect()
+}
+
+/// The hits to identify (indices). Refuses hits without a pulse (unless
+/// they are dropped), and with `--strict` any hit that fails a check;
+/// with `--drop-bad-hits` keeps only the hits that pass.
+fn screen_hits(hits: &[HitQuality], args: &IdentifyArgs) -> Result<Vec<usize>> {
+    let describe = |q: &HitQuality| -> String {
+        q.flags
+            .iter()
+            .filter(|f| f.check.fails_hit())
+            .map(|f| format!("  {}: {f}", q.file))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    let fatal: Vec<&HitQuality> = hits.iter().filter(|q| q.fatal()).collect();
+    if !fatal.is_empty() && !args.drop_bad_hits {
+        let lines: Vec<String> = fatal
+            .iter()
+            .flat_map(|q| {
+                q.flags
+                    .iter()
+                    .filter(|f| f.check.is_fatal())
+                    .map(|f| format!("{}: {f}", q.file))
+            })
+            .collect();
+        bail!(
+            "{}\n(remove the record, or pass --drop-bad-hits to identify without it)",
+            lines.join("\n")
+        );
+    }
+    let failing: Vec<&HitQuality> = hits.iter().filter(|q| !q.passed()).collect();
+    if args.strict && !failing.is_empty() {
+        let lines: Vec<String> = failing.iter().map(|q| describe(q)).collect();
+        bail!(
+            "--strict: {} of {} hits fail the quality checks:\n{}",
+            failing.len(),
+            hits.len(),
+            lines.join("\n")
+        );
+    }
+    if args.drop_bad_hits {
+        let keep: Vec<usize> = (0..hits.len()).filter(|&i| hits[i].passed()).collect();
+        if keep.is_empty() {
+            let lines: Vec<String> = failing.iter().map(|q| describe(q)).collect();
+            bail!(
+                "--drop-bad-hits: all {} hits fail the quality checks, none remain to identify:\n{}",
+                hits.len(),
+                lines.join("\n")
+            );
+        }
+        return Ok(keep);
+    }
+    Ok((0..hits.len()).collect())
+}
+
+/// Refuses output selections and orders that cannot give one mode per
+/// output before running the identification.
+fn check_orders(c: &LoadedCampaign, args: &IdentifyArgs) -> Result<()> {
+    let m = c.output_names.len();
+    if m < 2 {
+        bail!(
+            "only {m} output selected ({}): MKR needs an accelerometer on every floor (one output per degree of freedom) and the Rayleigh fit needs at least 2 modes; select every floor's accelerometer with --outputs",
+            c.output_names.join(", ")
+        );
+    }
+    if let Some(n) = args.order
+        && n < 2 * m
+    {
+        bail!(
+            "--order {n}: a realization of order {n} has at most {} mode(s), but {m} outputs (one per degree of freedom: {}) need {m}; use --order {} or more, or leave it out",
+            n / 2,
+            c.output_names.join(", "),
+            2 * m
+        );
+    }
+    Ok(())
+}
+
+/// The records showing more structural modes than there are outputs means
+/// fewer outputs than degrees of freedom: MKR would build a model with the
+/// wrong number of floors.
+fn check_modes_against_outputs(r: &Identification, c: &LoadedCampaign) -> Result<()> {
+    for w in &r.warnings {
+        if let ident::Warning::ExtraStructuralModes {
+            kept_hz,
+            dropped_hz,
+        } = w
+        {
+            let mut all: Vec<f64> = kept_hz.iter().chain(dropped_hz).copied().collect();
+            all.sort_by(f64::total_cmp);
+            let list: Vec<String> = all.iter().map(|f| sig(*f, 4)).collect();
+            bail!(
+                "{}: the records show {} structural modes ({} Hz) but only {} outputs are selected ({}): fewer outputs than degrees of freedom. MKR needs an accelerometer on every floor; select them all with --outputs (if a mode is spurious, set the model order with --order)",
+                describe_files(&c.files),
+                all.len(),
+                list.join(", "),
+                c.output_names.len(),
+                c.output_names.join(", ")
+            );
+        }
+    }
+    Ok(())
+}
+
+/// An identification error with the files, channels and flags named.
+fn identification_error(
+    e: ident::Error,
+    c: &LoadedCampaign,
+    args: &IdentifyArgs,
+    collocated: (usize, usize),
+) -> anyhow::Error {
+    use ident::{Channel, DataError, EraError, MkrError, OkidError};
+    let file = |i: usize| {
+        c.files
+            .get(i)
+            .map_or_else(|| format!("record {i}"), |f| f.display().to_string())
+    };
+    let channel = |ch: Channel| match ch {
+        Channel::Input(i) => format!("input '{}'", c.input_names[i]),
+        Channel::Output(i) => format!("output '{}'", c.output_names[i]),
+    };
+    let orders = || {
+        let mut v = Vec::new();
+        if let Some(n) = args.order {
+            v.push(format!("--order {n}"));
+        }
+        if let Some(p) = args.observer_order {
+            v.push(format!("--observer-order {p}"));
+        }
+        if v.is_empty() {
+            "the automatic orders".to_string()
+        } else {
+            v.join(" and ")
+        }
+    };
+    match e {
+        ident::Error::Data(DataError::TooShort {
+            record,
+            samples,
+            required,
+            reason,
+        }) => anyhow!(
+            "{}: too short for {}: {samples} samples, {required} are needed ({reason}); record longer or lower the orders",
+            file(record),
+            orders()
+        ),
+        ident::Error::Okid(OkidError::Underdetermined {
+            equations,
+            unknowns,
+        }) => anyhow!(
+            "{}: too short for {}: {} hit(s) of {} samples give OKID {equations} equations for {unknowns} unknowns; record longer or lower --observer-order",
+            describe_files(&c.files),
+            orders(),
+            c.records.len(),
+            c.records.first().map_or(0, Record::len)
+        ),
+        ident::Error::Data(DataError::NoExcitation { record }) => anyhow!(
+            "{}: no hit: every sample of the force is zero",
+            file(record)
+        ),
+        ident::Error::Data(DataError::DeadChannel { channel: ch }) => anyhow!(
+            "{}: {} is zero in every record (a dead or disconnected sensor)",
+            describe_files(&c.files),
+            channel(ch)
+        ),
+        ident::Error::Data(DataError::NonFinite {
+            record,
+            channel: ch,
+            sample,
+            value,
+        }) => anyhow!(
+            "{}: {}, sample {sample} is not finite ({value})",
+            file(record),
+            channel(ch)
+        ),
+        ident::Error::Era(EraError::OrderTooLarge { order, max }) if args.order.is_some() => {
+            anyhow!(
+                "--order {order}: larger than the largest order {max} that {} supports; lower it (or leave it out)",
+                describe_files(&c.files)
+            )
+        }
+        ident::Error::Era(EraError::RankDeficient { order, rank }) if args.order.is_some() => {
+            anyhow!(
+                "--order {order}: the Hankel matrix of {} has rank {rank} only, the records do not support that order; use --order {} or less (or leave it out)",
+                describe_files(&c.files),
+                rank - rank % 2
+            )
+        }
+        ident::Error::Mkr(MkrError::InconsistentPolarity { imaginary_parts }) => {
+            let parts: Vec<String> = imaginary_parts.iter().map(|v| format!("{v:.3e}")).collect();
+            anyhow!(
+                "{}: input '{}' is not collocated with output '{}': the driving-point residues of the modes have mixed signs ({}), which a force and an accelerometer at the same floor cannot give. Name the accelerometer at the hit floor with --collocated OUT:IN (outputs: {})",
+                describe_files(&c.files),
+                c.input_names[collocated.1],
+                c.output_names[collocated.0],
+                parts.join(", "),
+                c.output_names.join(", ")
+            )
+        }
+        other => anyhow!(
+            "identification of {} failed: {other}",
+            describe_files(&c.files)
+        ),
+    }
+}
+
+/// An identification warning with record indices replaced by file names.
+fn ident_warning(w: &ident::Warning, labels: &[String]) -> String {
+    match w {
+        ident::Warning::ShortPretrigger {
+            record,
+            peak_sample,
+            recommended,
+        } => format!(
+            "{}: the hit is at sample {peak_sample}, less than {recommended} samples after the record start; the band-limited precursor before the record is neglected",
+            labels
+                .get(*record)
+                .cloned()
+                .unwrap_or_else(|| format!("record {record}"))
+        ),
+        other => other.to_string(),
+    }
 }
 
 fn describe_files(files: &[PathBuf]) -> String {
@@ -414,6 +723,19 @@ pub struct IdentifyReport {
     pub consistency: f64,
     pub polarity_flipped: bool,
     pub warnings: Vec<String>,
+    /// Quality checks of every hit given (empty for a realization).
+    pub hit_quality: Vec<HitQuality>,
+    /// Files of the hits left out by `--drop-bad-hits`.
+    pub dropped_hits: Vec<String>,
+    /// Error bars over the hits (null for a realization, with
+    /// `--no-uncertainty`, or with fewer than 3 hits).
+    pub uncertainty: Option<Uncertainty>,
+    /// Why there are no error bars, if there are none for records.
+    pub uncertainty_skipped: Option<String>,
+    /// Indices into `modes` of the modes used, in the order of the
+    /// uncertainty's per-mode lists.
+    #[serde(skip)]
+    pub mkr_modes: Vec<usize>,
 }
 
 impl IdentifyReport {
@@ -462,6 +784,11 @@ impl IdentifyReport {
             consistency: r.consistency,
             polarity_flipped: r.polarity_flipped,
             warnings: r.warnings.iter().map(ToString::to_string).collect(),
+            hit_quality: Vec::new(),
+            dropped_hits: Vec::new(),
+            uncertainty: None,
+            uncertainty_skipped: None,
+            mkr_modes: r.mkr_modes.clone(),
         }
     }
 
@@ -498,21 +825,72 @@ impl IdentifyReport {
                 o.order, o.leads, o.rank, o.unknowns, o.rcond, o.relative_residual
             ));
         }
-        out.push_str(&format!("model order {}\n\nModes\n", self.model_order));
-        out.push_str("   #      f [Hz]    xi [%]    EMAC     MPC     CMI  structural  used\n");
-        for (i, m) in self.modes.iter().enumerate() {
-            let emac = m.emac.map_or("-".to_string(), |e| format!("{e:.3}"));
-            out.push_str(&format!(
-                "  {:>2}  {:>10}  {:>8}  {:>6}  {:>6.3}  {:>6.3}  {:>10}  {:>4}\n",
-                i + 1,
-                sig(m.frequency_hz, 6),
-                sig(100.0 * m.damping_ratio, 4),
-                emac,
-                m.mpc,
-                m.cmi,
-                if m.structural { "yes" } else { "no" },
-                if m.used { "yes" } else { "" }
-            ));
+        if !self.hit_quality.is_empty() {
+            out.push_str(&self.quality_table());
+        }
+        out.push_str(&format!("model order {}\n", self.model_order));
+        let u = self.uncertainty.as_ref();
+        match (u, &self.uncertainty_skipped) {
+            (Some(u), _) => out.push_str(&format!(
+                "error bars: +- one standard error, {} over {} hits ({} resamples at model order {})\n",
+                u.method, u.hits, u.resamples, u.model_order
+            )),
+            (None, Some(why)) if !s.realization => {
+                out.push_str(&format!("no error bars: {why}\n"));
+            }
+            _ => {}
+        }
+        out.push_str("\nModes\n");
+        let rows: Vec<[String; 8]> = self
+            .modes
+            .iter()
+            .enumerate()
+            .map(|(i, m)| {
+                let k = self.mkr_modes.iter().position(|&j| j == i);
+                let f_std = u.zip(k).map(|(u, k)| u.frequencies_hz.std[k]);
+                let xi_std = u.zip(k).map(|(u, k)| 100.0 * u.damping_ratios.std[k]);
+                [
+                    format!("{}", i + 1),
+                    plus_minus(m.frequency_hz, f_std, 6),
+                    plus_minus(100.0 * m.damping_ratio, xi_std, 4),
+                    m.emac.map_or("-".to_string(), |e| format!("{e:.3}")),
+                    format!("{:.3}", m.mpc),
+                    format!("{:.3}", m.cmi),
+                    if m.structural { "yes" } else { "no" }.to_string(),
+                    if m.used { "yes" } else { "" }.to_string(),
+                ]
+            })
+            .collect();
+        let head = [
+            "#",
+            "f [Hz]",
+            "xi [%]",
+            "EMAC",
+            "MPC",
+            "CMI",
+            "structural",
+            "used",
+        ];
+        let widths: Vec<usize> = (0..head.len())
+            .map(|c| {
+                rows.iter()
+                    .map(|r| r[c].chars().count())
+                    .chain([head[c].len()])
+                    .max()
+                    .unwrap_or(0)
+            })
+            .collect();
+        out.push(' ');
+        for (c, h) in head.iter().enumerate() {
+            out.push_str(&format!(" {h:>w$}", w = widths[c] + 1));
+        }
+        out.push('\n');
+        for r in &rows {
+            out.push(' ');
+            for (c, cell) in r.iter().enumerate() {
+                out.push_str(&format!(" {cell:>w$}", w = widths[c] + 1));
+            }
+            out.push('\n');
         }
         out.push_str("\nMode shapes of the modes used (outputs, magnitude and phase in degrees)\n");
         for m in self.modes.iter().filter(|m| m.used) {
@@ -526,17 +904,41 @@ impl IdentifyReport {
         }
         out.push_str(&format!(
             "\nRayleigh: alpha = {} 1/s, beta = {} s\n\n",
-            sig(self.rayleigh.alpha, 5),
-            sig(self.rayleigh.beta, 5)
+            plus_minus(self.rayleigh.alpha, u.map(|u| u.rayleigh_alpha.std), 5),
+            plus_minus(self.rayleigh.beta, u.map(|u| u.rayleigh_beta.std), 5)
         ));
-        let m = |rows: &Vec<Vec<f64>>| DMatrix::from_fn(rows.len(), rows.len(), |i, j| rows[i][j]);
-        out.push_str(&matrix("Mass M [kg]", &m(&self.mass)));
-        out.push_str(&matrix("Stiffness K [N/m]", &m(&self.stiffness)));
-        out.push_str(&matrix("Damping, MKR [N s/m]", &m(&self.damping_mkr)));
-        out.push_str(&matrix(
-            "Damping, Rayleigh alpha M + beta K [N s/m]",
-            &m(&self.damping_rayleigh),
-        ));
+        match u {
+            Some(u) => {
+                out.push_str(&matrix_table("Mass M [kg]", &self.mass, Some(&u.mass.std)));
+                out.push_str(&matrix_table(
+                    "Stiffness K [N/m]",
+                    &self.stiffness,
+                    Some(&u.stiffness.std),
+                ));
+                out.push_str(&matrix_table(
+                    "Damping, MKR [N s/m]",
+                    &self.damping_mkr,
+                    Some(&u.damping_mkr.std),
+                ));
+                out.push_str(&matrix_table(
+                    "Damping, Rayleigh alpha M + beta K [N s/m]",
+                    &self.damping_rayleigh,
+                    Some(&u.damping_rayleigh.std),
+                ));
+            }
+            None => {
+                let m = |rows: &Vec<Vec<f64>>| {
+                    DMatrix::from_fn(rows.len(), rows.len(), |i, j| rows[i][j])
+                };
+                out.push_str(&matrix("Mass M [kg]", &m(&self.mass)));
+                out.push_str(&matrix("Stiffness K [N/m]", &m(&self.stiffness)));
+                out.push_str(&matrix("Damping, MKR [N s/m]", &m(&self.damping_mkr)));
+                out.push_str(&matrix(
+                    "Damping, Rayleigh alpha M + beta K [N s/m]",
+                    &m(&self.damping_rayleigh),
+                ));
+            }
+        }
         out.push_str(&format!(
             "\nSecond-order consistency ||W W^T|| / ||W L W^T|| = {:.3e} (0 for an exact second-order system)\n",
             self.consistency
@@ -550,6 +952,92 @@ impl IdentifyReport {
                 out.push_str(&format!("  - {w}\n"));
             }
         }
+        out
+    }
+
+    /// The hit quality table of the human output.
+    fn quality_table(&self) -> String {
+        let names: Vec<&str> = self
+            .hit_quality
+            .first()
+            .map(|q| q.channels.iter().map(|c| c.name.as_str()).collect())
+            .unwrap_or_default();
+        let head = [
+            "hit".to_string(),
+            "file".to_string(),
+            "t [s]".to_string(),
+            "2nd pulse".to_string(),
+            "fall [dB]".to_string(),
+            format!("SNR [dB] {}", names.join("/")),
+            "tail".to_string(),
+            "checks".to_string(),
+        ];
+        let rows: Vec<Vec<String>> = self
+            .hit_quality
+            .iter()
+            .map(|q| {
+                let p = q.pulse.as_ref();
+                let snr: Vec<String> = q
+                    .channels
+                    .iter()
+                    .map(|c| c.snr_db.map_or("-".to_string(), |v| format!("{v:.0}")))
+                    .collect();
+                let checks: Vec<&str> = q.flags.iter().map(|f| f.check.label()).collect();
+                let mut checks_text = if checks.is_empty() {
+                    "ok".to_string()
+                } else {
+                    let mut v: Vec<&str> = Vec::new();
+                    for c in checks {
+                        if !v.contains(&c) {
+                            v.push(c);
+                        }
+                    }
+                    v.join(", ")
+                };
+                if self.dropped_hits.contains(&q.file) {
+                    checks_text.push_str(" (dropped)");
+                }
+                vec![
+                    q.hit.to_string(),
+                    q.file.clone(),
+                    q.hit_time_s.map_or("-".into(), |t| format!("{t:.3}")),
+                    p.map_or("-".into(), |p| format!("{:.2}", p.double_hit_ratio)),
+                    p.map_or("-".into(), |p| format!("{:.1}", p.spectrum_drop_db)),
+                    snr.join("/"),
+                    q.max_tail_ratio()
+                        .map_or("-".into(), |t| format!("{:.3}", t)),
+                    checks_text,
+                ]
+            })
+            .collect();
+        let widths: Vec<usize> = (0..head.len())
+            .map(|c| {
+                rows.iter()
+                    .map(|r| r[c].chars().count())
+                    .chain([head[c].chars().count()])
+                    .max()
+                    .unwrap_or(0)
+            })
+            .collect();
+        let mut out = String::from(
+            "\nHit quality (2nd pulse: second force pulse over the first; fall: force spectrum over the band; tail: end RMS over peak)\n",
+        );
+        let line = |cells: &[String]| -> String {
+            let mut l = String::from(" ");
+            for (c, cell) in cells.iter().enumerate() {
+                if c == 1 || c + 1 == cells.len() {
+                    l.push_str(&format!("  {cell:<w$}", w = widths[c]));
+                } else {
+                    l.push_str(&format!("  {cell:>w$}", w = widths[c]));
+                }
+            }
+            l.trim_end().to_string() + "\n"
+        };
+        out.push_str(&line(&head));
+        for r in &rows {
+            out.push_str(&line(r));
+        }
+        out.push('\n');
         out
     }
 }

@@ -1,0 +1,342 @@
+//! `frameid identify` on wrong input, run as a user would: every case is
+//! refused with exit code 2, a message naming the file (and line, column or
+//! flag) and the problem, and nothing on standard output.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::*;
+
+/// A campaign simulated by the binary: `hits` CSV files of `scenario`.
+fn campaign(dir: &Path, scenario: &str, hits: usize) -> Vec<String> {
+    let sc = repo("scenarios").join(scenario);
+    ok(&[
+        "simulate",
+        s(&sc),
+        "--out",
+        s(dir),
+        "--hits",
+        &hits.to_string(),
+    ]);
+    hit_files(dir, "csv")
+}
+
+/// Runs `frameid identify args...` and checks the refusal: exit code 2,
+/// empty stdout, stderr containing every needle. Returns stderr.
+fn refused(args: &[&str], needles: &[&str]) -> String {
+    let mut all = vec!["identify"];
+    all.extend_from_slice(args);
+    let (code, out, err) = run(&all);
+    assert_eq!(code, 2, "{all:?}: exit code {code}\n{err}");
+    assert!(out.is_empty(), "{all:?}: stdout not empty: {out}");
+    assert!(!err.contains("panicked"), "{all:?}: {err}");
+    for n in needles {
+        assert!(err.contains(n), "{all:?}: expected '{n}' in:\n{err}");
+    }
+    err
+}
+
+/// Copies a CSV record with line `line` (1-based) replaced by `edit`.
+fn edited(
+    src: &str,
+    dir: &Path,
+    name: &str,
+    mut edit: impl FnMut(usize, &str) -> String,
+) -> String {
+    let text = std::fs::read_to_string(src).unwrap();
+    let out: Vec<String> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| edit(i + 1, l))
+        .collect();
+    let path: PathBuf = dir.join(name);
+    std::fs::write(&path, out.join("\n") + "\n").unwrap();
+    path.to_string_lossy().into_owned()
+}
+
+/// Replaces cell `col` (0-based) of a CSV line.
+fn cell(line: &str, col: usize, value: &str) -> String {
+    let mut cells: Vec<String> = line.split(',').map(String::from).collect();
+    cells[col] = value.to_string();
+    cells.join(",")
+}
+
+#[test]
+fn empty_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("empty.csv");
+    std::fs::write(&f, "").unwrap();
+    refused(&[s(&f)], &["empty.csv: the file is empty"]);
+}
+
+#[test]
+fn header_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("header.csv");
+    std::fs::write(&f, "time,force [N],acc1 [m/s^2],acc2 [m/s^2]\n").unwrap();
+    refused(
+        &[s(&f)],
+        &["header.csv: line 1: header row but no data rows"],
+    );
+}
+
+#[test]
+fn non_numeric_cell() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = campaign(&dir.path().join("c"), "paper-case1.toml", 2);
+    let bad = edited(&files[0], dir.path(), "text.csv", |i, l| {
+        if i == 6 {
+            cell(l, 1, "1,5e-3")
+        } else {
+            l.into()
+        }
+    });
+    // "1,5e-3" splits into two cells: a ragged row; a word is not a number.
+    refused(&[&bad, &files[1]], &["text.csv: line 6"]);
+    let bad = edited(&files[0], dir.path(), "word.csv", |i, l| {
+        if i == 6 { cell(l, 2, "n/a") } else { l.into() }
+    });
+    refused(
+        &[&bad, &files[1]],
+        &["word.csv: line 6, column 3 (acc1 [m/s^2]): 'n/a' is not a number"],
+    );
+}
+
+#[test]
+fn nan_and_infinite_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = campaign(&dir.path().join("c"), "paper-case1.toml", 2);
+    let nan = edited(&files[0], dir.path(), "nan.csv", |i, l| {
+        if i == 7 { cell(l, 1, "NaN") } else { l.into() }
+    });
+    refused(
+        &[&files[1], &nan],
+        &["nan.csv: line 7, column 2 (force [N]): value 'NaN' is NaN or infinite"],
+    );
+    let inf = edited(&files[0], dir.path(), "inf.csv", |i, l| {
+        if i == 900 {
+            cell(l, 3, "-inf")
+        } else {
+            l.into()
+        }
+    });
+    refused(
+        &[&inf],
+        &["inf.csv: line 900, column 4 (acc2 [m/s^2]): value '-inf' is NaN or infinite"],
+    );
+}
+
+#[test]
+fn non_uniform_and_decreasing_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = campaign(&dir.path().join("c"), "paper-case1.toml", 1);
+    let uneven = edited(&files[0], dir.path(), "uneven.csv", |i, l| {
+        if i == 101 {
+            cell(l, 0, "1.55")
+        } else {
+            l.into()
+        }
+    });
+    refused(
+        &[&uneven],
+        &[
+            "uneven.csv: line 101, column 1 (time)",
+            "not uniformly sampled",
+        ],
+    );
+    // Lines 101 and 102 swapped: time goes back.
+    let text = std::fs::read_to_string(&files[0]).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let decreasing = edited(&files[0], dir.path(), "decreasing.csv", |i, l| match i {
+        101 => lines[101].into(),
+        102 => lines[100].into(),
+        _ => l.into(),
+    });
+    refused(
+        &[&decreasing],
+        &[
+            "decreasing.csv: line 102, column 1 (time)",
+            "is not after the previous time",
+            "(decreasing)",
+        ],
+    );
+}
+
+#[test]
+fn records_of_different_length_or_sampling() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = campaign(&dir.path().join("c"), "paper-case1.toml", 2);
+    let shorter = edited(&files[1], dir.path(), "shorter.csv", |_, l| l.into());
+    let text = std::fs::read_to_string(&shorter).unwrap();
+    let cut: Vec<&str> = text.lines().take(1001).collect();
+    std::fs::write(&shorter, cut.join("\n") + "\n").unwrap();
+    refused(
+        &[&files[0], &shorter],
+        &[&format!(
+            "campaign records differ in length: {shorter} has 1000 samples but {} has 2048",
+            files[0]
+        )],
+    );
+    let fast = edited(&files[1], dir.path(), "fast.csv", |i, l| {
+        if i == 1 {
+            l.into()
+        } else {
+            cell(l, 0, &format!("{}", (i - 2) as f64 / 128.0))
+        }
+    });
+    refused(
+        &[&files[0], &fast],
+        &[&format!(
+            "campaign records differ in sampling: {fast} has dt = 0.0078125 s (128 Hz) but {} has dt = 0.015625 s (64 Hz)",
+            files[0]
+        )],
+    );
+}
+
+#[test]
+fn named_channel_that_does_not_exist() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = campaign(dir.path(), "paper-case1.toml", 1);
+    refused(
+        &[&files[0], "--input", "hammer"],
+        &[
+            &format!("{}: no channel matches 'hammer'", files[0]),
+            "available channels: #1 force [N], #2 acc1 [m/s^2], #3 acc2 [m/s^2]",
+        ],
+    );
+    refused(
+        &[&files[0], "--outputs", "acc1,acc3"],
+        &[&format!("{}: no channel matches 'acc3'", files[0])],
+    );
+    refused(
+        &[&files[0], "--collocated", "acc3:force"],
+        &["--collocated: no output named 'acc3'; outputs: acc1, acc2"],
+    );
+}
+
+#[test]
+fn fewer_outputs_than_degrees_of_freedom() {
+    let dir = tempfile::tempdir().unwrap();
+    // Three floors, two accelerometers selected: the records show three
+    // structural modes.
+    let files = campaign(&dir.path().join("three"), "frame-three-storey.toml", 3);
+    let mut args: Vec<&str> = files.iter().map(String::as_str).collect();
+    args.extend(["--outputs", "acc1,acc2"]);
+    refused(
+        &args,
+        &[
+            "the records show 3 structural modes",
+            "only 2 outputs are selected (acc1, acc2): fewer outputs than degrees of freedom",
+            "select them all with --outputs",
+        ],
+    );
+    // One output: MKR and the Rayleigh fit cannot work.
+    let two = campaign(&dir.path().join("two"), "paper-case1.toml", 2);
+    refused(
+        &[&two[0], &two[1], "--outputs", "acc1"],
+        &["only 1 output selected (acc1)", "--outputs"],
+    );
+}
+
+#[test]
+fn orders_that_the_outputs_or_the_data_cannot_give() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = campaign(dir.path(), "paper-case1.toml", 2);
+    // More modes than outputs can carry: order below 2 per output.
+    refused(
+        &[&files[0], &files[1], "--order", "2"],
+        &[
+            "--order 2: a realization of order 2 has at most 1 mode(s), but 2 outputs",
+            "use --order 4 or more",
+        ],
+    );
+    // Beyond what the observer and the Hankel matrix support.
+    refused(
+        &[&files[0], &files[1], "--order", "60"],
+        &["--order 60: larger than the largest order 40 that 2 records"],
+    );
+}
+
+#[test]
+fn input_not_collocated_with_the_named_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = campaign(dir.path(), "paper-case1.toml", 2);
+    refused(
+        &[&files[0], &files[1], "--collocated", "acc2:force"],
+        &[
+            "input 'force' is not collocated with output 'acc2'",
+            "mixed signs",
+            "--collocated OUT:IN (outputs: acc1, acc2)",
+            &files[0],
+        ],
+    );
+}
+
+#[test]
+fn record_without_a_hit() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = campaign(&dir.path().join("c"), "paper-case1.toml", 3);
+    let zero = edited(&files[1], dir.path(), "zero.csv", |i, l| {
+        if i == 1 { l.into() } else { cell(l, 1, "0") }
+    });
+    refused(
+        &[&files[0], &zero, &files[2]],
+        &[
+            "zero.csv: no hit: the force channel 'force' is constant",
+            "--drop-bad-hits",
+        ],
+    );
+    // Force with only noise (a fixed pseudo-random sequence).
+    let mut state: u64 = 7;
+    let noise = edited(&files[1], dir.path(), "noise.csv", |i, l| {
+        if i == 1 {
+            return l.into();
+        }
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let u = (state >> 11) as f64 / (1u64 << 53) as f64;
+        cell(l, 1, &format!("{}", 0.002 * (u - 0.5)))
+    });
+    refused(
+        &[&files[0], &noise, &files[2]],
+        &[
+            "noise.csv: no hit: the force channel 'force' peaks at",
+            "only noise",
+        ],
+    );
+    // Dropped on request: the other two are identified, and it is said.
+    let out = ok(&["identify", &files[0], &noise, &files[2], "--drop-bad-hits"]);
+    assert!(
+        out.contains("dropped 1 of 3 hits") && out.contains("noise.csv (no hit)"),
+        "{out}"
+    );
+}
+
+#[test]
+fn record_too_short_for_the_orders() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = campaign(&dir.path().join("c"), "paper-case1.toml", 1);
+    let text = std::fs::read_to_string(&files[0]).unwrap();
+    let short = dir.path().join("short.csv");
+    std::fs::write(
+        &short,
+        text.lines().take(61).collect::<Vec<_>>().join("\n") + "\n",
+    )
+    .unwrap();
+    refused(
+        &[s(&short)],
+        &[
+            "short.csv: too short for the automatic orders: 60 samples",
+            "are needed",
+            "record longer or lower the orders",
+        ],
+    );
+    refused(
+        &[s(&short), "--observer-order", "20", "--order", "30"],
+        &[
+            "short.csv: too short for --order 30 and --observer-order 20: 60 samples, 106 are needed",
+        ],
+    );
+}
