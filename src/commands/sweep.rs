@@ -71,15 +71,27 @@ pub fn run_sweep(
     Ok(Some(sweep::summarize(plan, &names, &rows)))
 }
 
-/// Writes `representative.json` (the report's example campaign).
+/// Writes `representative.json` (the report's example campaign). If its
+/// identification fails (the sweep counts such failures), the report goes
+/// without it: a warning, and no stale file is left.
 pub fn write_representative(
     scenario: &crate::scenario::Scenario,
     truth: &TrueModel,
     seed: u64,
     out: &Path,
 ) -> Result<()> {
-    let rep = crate::representative::representative(scenario, truth, seed)?;
-    crate::fsutil::write_json(&out.join("representative.json"), &rep)
+    let path = out.join("representative.json");
+    match crate::representative::representative(scenario, truth, seed) {
+        Ok(rep) => crate::fsutil::write_json(&path, &rep),
+        Err(e) => {
+            eprintln!("warning: no representative campaign in the report: {e:#}");
+            if path.exists() {
+                std::fs::remove_file(&path)
+                    .map_err(|err| anyhow!("{}: cannot remove: {err}", path.display()))?;
+            }
+            Ok(())
+        }
+    }
 }
 
 pub fn run(args: &SweepArgs) -> Result<()> {
