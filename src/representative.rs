@@ -13,7 +13,9 @@ use serde::{Deserialize, Serialize};
 use sim::{Campaign, Model, derive_seed};
 
 use crate::experiment::{TrueModel, campaign_records, noise_at};
+use crate::quality::{QualitySettings, assess_hit};
 use crate::scenario::Scenario;
+use crate::uncertainty::{MatrixSpread, Uncertainty, jackknife};
 
 /// Stream tag for the representative campaign's seed.
 const REPRESENTATIVE_TAG: u64 = 0x5245_5052;
@@ -97,6 +99,36 @@ pub fn representative(
         damping: id.damping_rayleigh.clone(),
     };
     let frf = frfs(&campaign, &identified, &truth.model, input);
+    let inputs = vec!["force".to_string()];
+    let outputs: Vec<String> = (1..=n).map(|i| format!("acc{i}")).collect();
+    let labels: Vec<String> = (1..=records.len()).map(|h| format!("hit {h}")).collect();
+    let hit_quality = records
+        .iter()
+        .enumerate()
+        .map(|(h, r)| {
+            let q = assess_hit(
+                r,
+                campaign.dt_s,
+                &inputs,
+                &outputs,
+                &QualitySettings::default(),
+            );
+            rm::HitQualityRow {
+                hit: h + 1,
+                peak_force_n: q.channels.first().map_or(f64::NAN, |c| c.peak),
+                pulse_duration_s: q
+                    .pulse
+                    .as_ref()
+                    .map_or(f64::NAN, |p| p.equivalent_duration_s),
+                min_snr_db: q.min_snr_db().unwrap_or(f64::NAN),
+                tail_ratio: q.max_tail_ratio().unwrap_or(f64::NAN),
+                flags: q.flags.iter().map(|f| f.message.clone()).collect(),
+            }
+        })
+        .collect();
+    // Error bars from the hits themselves (leave-one-out); a campaign too
+    // small or too noisy for them still gets its tables.
+    let spread = jackknife(&identifier, &records, campaign.dt_s, &id, &labels).ok();
     Ok(RepresentativeFile {
         seed,
         representative: rm::Representative {
@@ -110,8 +142,9 @@ pub fn representative(
             modes,
             stabilization,
             frf,
-            tables: tables(&id, truth),
+            tables: tables(&id, truth, spread.as_ref()),
             warnings: id.warnings.iter().map(ToString::to_string).collect(),
+            hit_quality,
         },
     })
 }
@@ -182,7 +215,12 @@ fn frfs(c: &Campaign, identified: &Model, truth: &Model, input: usize) -> Vec<rm
         .collect()
 }
 
-fn matrix_rows(prefix: &str, est: &DMatrix<f64>, truth: &DMatrix<f64>) -> Vec<rm::ComparisonRow> {
+fn matrix_rows(
+    prefix: &str,
+    est: &DMatrix<f64>,
+    truth: &DMatrix<f64>,
+    std: Option<&MatrixSpread>,
+) -> Vec<rm::ComparisonRow> {
     let n = truth.nrows();
     let mut rows = Vec::new();
     for i in 0..n {
@@ -191,61 +229,92 @@ fn matrix_rows(prefix: &str, est: &DMatrix<f64>, truth: &DMatrix<f64>) -> Vec<rm
                 label: format!("{prefix}{}{}", i + 1, j + 1),
                 truth: truth[(i, j)],
                 identified: est[(i, j)],
+                std: std.map(|s| s.std[i][j]),
             });
         }
     }
     rows
 }
 
-fn tables(id: &ident::Identification, truth: &TrueModel) -> Vec<rm::ComparisonTable> {
+fn tables(
+    id: &ident::Identification,
+    truth: &TrueModel,
+    spread: Option<&Uncertainty>,
+) -> Vec<rm::ComparisonTable> {
     let n = truth.dofs();
     let table = |title: &str, unit: &str, rows| rm::ComparisonTable {
         title: title.into(),
         unit: unit.into(),
         rows,
     };
+    let mode_rows =
+        |label: &str, scale: f64, truth: &[f64], est: &[f64], std: Option<&Vec<f64>>| {
+            (0..n)
+                .map(|j| rm::ComparisonRow {
+                    label: format!("{label}{}", j + 1),
+                    truth: scale * truth[j],
+                    identified: scale * est[j],
+                    std: std.map(|s| scale * s[j]),
+                })
+                .collect()
+        };
     vec![
         table(
             "Natural frequencies",
             "Hz",
-            (0..n)
-                .map(|j| rm::ComparisonRow {
-                    label: format!("f{}", j + 1),
-                    truth: truth.modal.frequencies_hz[j],
-                    identified: id.frequencies_hz[j],
-                })
-                .collect(),
+            mode_rows(
+                "f",
+                1.0,
+                &truth.modal.frequencies_hz,
+                &id.frequencies_hz,
+                spread.map(|s| &s.frequencies_hz.std),
+            ),
         ),
         table(
             "Damping ratios",
             "%",
-            (0..n)
-                .map(|j| rm::ComparisonRow {
-                    label: format!("xi{}", j + 1),
-                    truth: 100.0 * truth.modal.damping_ratios[j],
-                    identified: 100.0 * id.damping_ratios[j],
-                })
-                .collect(),
+            mode_rows(
+                "xi",
+                100.0,
+                &truth.modal.damping_ratios,
+                &id.damping_ratios,
+                spread.map(|s| &s.damping_ratios.std),
+            ),
         ),
         table(
             "Mass matrix M",
             "kg",
-            matrix_rows("M", &id.mass, &truth.model.mass),
+            matrix_rows("M", &id.mass, &truth.model.mass, spread.map(|s| &s.mass)),
         ),
         table(
             "Stiffness matrix K",
             "N/m",
-            matrix_rows("K", &id.stiffness, &truth.model.stiffness),
+            matrix_rows(
+                "K",
+                &id.stiffness,
+                &truth.model.stiffness,
+                spread.map(|s| &s.stiffness),
+            ),
         ),
         table(
             "Damping matrix, MKR (eq. 30)",
             "N s/m",
-            matrix_rows("R", &id.damping_mkr, &truth.model.damping),
+            matrix_rows(
+                "R",
+                &id.damping_mkr,
+                &truth.model.damping,
+                spread.map(|s| &s.damping_mkr),
+            ),
         ),
         table(
             "Damping matrix, Rayleigh alpha M + beta K (eq. 16-19)",
             "N s/m",
-            matrix_rows("R", &id.damping_rayleigh, &truth.model.damping),
+            matrix_rows(
+                "R",
+                &id.damping_rayleigh,
+                &truth.model.damping,
+                spread.map(|s| &s.damping_rayleigh),
+            ),
         ),
     ]
 }

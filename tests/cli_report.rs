@@ -112,9 +112,20 @@ fn report_of_a_sweep_has_every_section_and_is_drawn_from_the_data() {
             &format!("{id} svg[data-chart=force] g.series[data-role=line]"),
         );
         assert_eq!(force[0].value().attr("data-points"), Some("2048"));
-        // Tables compare truth and identified M, K and both damping matrices.
+        // Tables compare truth and identified M, K and both damping
+        // matrices, with error bars from the hits (leave-one-out).
         let tables = select(&doc, &format!("{id} table.comparison"));
         assert_eq!(tables.len(), 6);
+        let stds = select(&doc, &format!("{id} table.comparison td[data-std]"));
+        assert!(
+            !stds.is_empty()
+                && stds
+                    .iter()
+                    .all(|td| td.value().attr("data-std") != Some("none"))
+        );
+        // One quality row per hit of the representative campaign.
+        let hits = select(&doc, &format!("{id} table.hit-quality tbody tr"));
+        assert_eq!(hits.len(), 10);
     }
     for svg in select(&doc, "svg.chart") {
         assert!(

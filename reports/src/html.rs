@@ -244,6 +244,7 @@ fn representative(
         }
         out.push_str("</ul>\n");
     }
+    hit_quality(out, &rep.hit_quality);
 
     out.push_str("<h4>Records of the first hit</h4>\n");
     figure(out, &figures::force(sid, rep), "wide")?;
@@ -285,6 +286,42 @@ fn representative(
     Ok(())
 }
 
+/// The per-hit quality table: peak force, pulse duration, worst SNR, tail
+/// ratio and the failed checks.
+fn hit_quality(out: &mut String, rows: &[crate::model::HitQualityRow]) {
+    if rows.is_empty() {
+        return;
+    }
+    out.push_str("<div class=\"table-wrap\"><table class=\"hit-quality\">\n<caption>Hit quality (checked before identification)</caption>\n<thead><tr><th scope=\"col\">Hit</th><th scope=\"col\" class=\"num\">Peak force [N]</th><th scope=\"col\" class=\"num\">Pulse [ms]</th><th scope=\"col\" class=\"num\">Lowest SNR [dB]</th><th scope=\"col\" class=\"num\">End / peak</th><th scope=\"col\">Checks</th></tr></thead>\n<tbody>\n");
+    for r in rows {
+        let checks = if r.flags.is_empty() {
+            "passed".to_string()
+        } else {
+            r.flags
+                .iter()
+                .map(|f| escape(f))
+                .collect::<Vec<_>>()
+                .join("; ")
+        };
+        w!(
+            out,
+            "<tr{}><th scope=\"row\">{}</th><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td></tr>\n",
+            if r.flags.is_empty() {
+                ""
+            } else {
+                " class=\"bad\""
+            },
+            r.hit,
+            sig(r.peak_force_n, 4),
+            sig(1e3 * r.pulse_duration_s, 3),
+            sig(r.min_snr_db, 3),
+            sig(r.tail_ratio, 2),
+            checks
+        );
+    }
+    out.push_str("</tbody>\n</table></div>\n");
+}
+
 fn comparison(out: &mut String, sid: &str, rep: Option<&Representative>) {
     w!(
         out,
@@ -319,11 +356,17 @@ fn comparison_table(out: &mut String, t: &ComparisonTable, used: &mut BTreeSet<S
     } else {
         format!(" [{}]", escape(&t.unit))
     };
+    let with_std = t.rows.iter().any(|r| r.std.is_some());
     w!(
         out,
-        "<div class=\"table-wrap\"><table class=\"comparison\" data-table=\"{key}\">\n<caption>{}{}</caption>\n<thead><tr><th scope=\"col\">Entry</th><th scope=\"col\" class=\"num\">Truth</th><th scope=\"col\" class=\"num\">Identified</th><th scope=\"col\" class=\"num\">Relative error</th></tr></thead>\n<tbody>\n",
+        "<div class=\"table-wrap\"><table class=\"comparison\" data-table=\"{key}\">\n<caption>{}{}</caption>\n<thead><tr><th scope=\"col\">Entry</th><th scope=\"col\" class=\"num\">Truth</th><th scope=\"col\" class=\"num\">Identified</th>{}<th scope=\"col\" class=\"num\">Relative error</th></tr></thead>\n<tbody>\n",
         escape(&t.title),
-        unit
+        unit,
+        if with_std {
+            "<th scope=\"col\" class=\"num\">± std</th>"
+        } else {
+            ""
+        }
     );
     if t.rows.is_empty() {
         out.push_str("<tr><td colspan=\"4\" class=\"missing\">No rows.</td></tr>\n");
@@ -341,9 +384,19 @@ fn comparison_table(out: &mut String, t: &ComparisonTable, used: &mut BTreeSet<S
             }
             None => (MISSING.to_string(), "none".to_string(), "num"),
         };
+        let std_cell = if with_std {
+            format!(
+                "<td class=\"num\" data-std=\"{}\">{}</td>",
+                r.std.map_or("none".to_string(), |v| format!("{v:e}")),
+                r.std
+                    .map_or(MISSING.to_string(), |v| format!("± {}", sig(v, 2)))
+            )
+        } else {
+            String::new()
+        };
         w!(
             out,
-            "<tr><th scope=\"row\">{}</th><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"{class}\" data-rel-error=\"{data}\">{}</td></tr>\n",
+            "<tr><th scope=\"row\">{}</th><td class=\"num\">{}</td><td class=\"num\">{}</td>{std_cell}<td class=\"{class}\" data-rel-error=\"{data}\">{}</td></tr>\n",
             escape(&r.label),
             sig(r.truth, 5),
             sig(r.identified, 5),

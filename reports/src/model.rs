@@ -73,6 +73,31 @@ pub struct Representative {
     /// f, xi, M, K, MKR damping, Rayleigh damping.
     pub tables: Vec<ComparisonTable>,
     pub warnings: Vec<String>,
+    /// Added field. Quality of every hit of the campaign, checked before
+    /// identification.
+    #[serde(default)]
+    pub hit_quality: Vec<HitQualityRow>,
+}
+
+/// Added type. Quality metrics of one hit.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct HitQualityRow {
+    /// 1-based hit number.
+    pub hit: usize,
+    /// Peak force, N.
+    #[serde(deserialize_with = "nullable::f64")]
+    pub peak_force_n: f64,
+    /// Equivalent pulse duration, s.
+    #[serde(deserialize_with = "nullable::f64")]
+    pub pulse_duration_s: f64,
+    /// Lowest signal-to-noise ratio over the channels, dB.
+    #[serde(deserialize_with = "nullable::f64")]
+    pub min_snr_db: f64,
+    /// Largest ratio of the RMS at the end of a record to its peak.
+    #[serde(deserialize_with = "nullable::f64")]
+    pub tail_ratio: f64,
+    /// Failed checks, as text; empty when the hit passed.
+    pub flags: Vec<String>,
 }
 
 /// An identified mode; shapes are complex `[re, im]` per DOF, scaled so the
@@ -146,6 +171,10 @@ pub struct ComparisonRow {
     pub truth: f64,
     #[serde(deserialize_with = "nullable::f64")]
     pub identified: f64,
+    /// Added field. Standard deviation of the identified value (e.g. across
+    /// hits), shown as `± std` when present.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub std: Option<f64>,
 }
 
 /// The Monte Carlo sweep.

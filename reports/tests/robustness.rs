@@ -49,6 +49,7 @@ fn empty_representative() -> Representative {
         frf: vec![],
         tables: vec![],
         warnings: vec![],
+        hit_quality: vec![],
     }
 }
 
@@ -406,11 +407,13 @@ fn random_report(seed: u64) -> Report {
                                     label: string(&mut rng),
                                     truth: value(&mut rng),
                                     identified: value(&mut rng),
+                                    std: None,
                                 })
                                 .collect(),
                         })
                         .collect(),
                     warnings: (0..rng.below(2)).map(|_| string(&mut rng)).collect(),
+                    hit_quality: vec![],
                 }
             });
             let npanels = rng.below(4);

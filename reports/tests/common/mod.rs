@@ -431,6 +431,7 @@ pub fn representative(
                     label: format!("f{}", i + 1),
                     truth: *f,
                     identified: m.frequency_hz,
+                    std: None,
                 })
                 .collect(),
         },
@@ -445,6 +446,7 @@ pub fn representative(
                     label: format!("ξ{}", i + 1),
                     truth: *xi,
                     identified: m.damping_ratio,
+                    std: None,
                 })
                 .collect(),
         },
@@ -474,6 +476,7 @@ pub fn representative(
                 label: "M12 of a lumped-mass model".into(),
                 truth: 0.0,
                 identified: 0.0153,
+                std: None,
             }],
         },
     ];
@@ -490,6 +493,7 @@ pub fn representative(
         frf,
         tables,
         warnings: vec![],
+        hit_quality: vec![],
     }
 }
 
@@ -508,6 +512,7 @@ fn matrix_table(title: &str, unit: &str, m: [[f64; 2]; 2], factor: [f64; 3]) -> 
                 label: format!("{}{}", &title[..1], ij),
                 truth: *v,
                 identified: v * f,
+                std: None,
             })
             .collect(),
     }
