@@ -73,6 +73,7 @@ pub mod okid;
 pub mod pipeline;
 pub mod rayleigh;
 pub mod record;
+pub mod refine;
 pub mod statespace;
 
 #[cfg(test)]
@@ -85,4 +86,8 @@ pub use okid::{ObserverOrder, Okid, OkidError, OkidParams};
 pub use pipeline::{Error, Identification, Identifier, ValidIdentifier, Warning};
 pub use rayleigh::{Rayleigh, RayleighError};
 pub use record::{Channel, DataError, Record};
+pub use refine::{
+    Dashpot, ModalEstimate, Node, NoiseLevels, NoiseModel, Parametrization, RefineError,
+    Refinement, Refiner, SecondOrder, StopReason, Uncertainty,
+};
 pub use statespace::StateSpace;
