@@ -594,8 +594,9 @@ pub(crate) fn observations(spectra: &Spectra, m: usize) -> usize {
 /// median of `|e_ik|^2 / (N sum_l |G_il|^2)`, so that the force term dominates wherever
 /// `|G|` is above its typical size. That is a relative-error fit near the resonances, whose
 /// cost is far smoother in the parameters than an absolute fit of sharp peaks placed at
-/// slightly wrong frequencies: it widens the basin of attraction of the first run. Without
-/// force noise (`estimate_inputs` false) only the output levels are set.
+/// slightly wrong frequencies: it widens the basin of attraction of the first run (which
+/// uses these levels whatever the noise model). Force levels below the resolution are set
+/// to zero as usual.
 pub(crate) fn initial_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit) -> Noise {
     let residuals = ev.residuals.as_ref().expect("residuals kept");
     let gains = ev.gains.as_ref().expect("gains kept");
@@ -663,7 +664,7 @@ impl NoiseFit {
     }
 
     fn input_level(&self, l: usize, level: f64) -> f64 {
-        if self.estimate_inputs && level >= NOISE_RESOLUTION * self.input_rms[l] {
+        if level >= NOISE_RESOLUTION * self.input_rms[l] {
             level
         } else {
             0.0

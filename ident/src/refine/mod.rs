@@ -233,7 +233,7 @@ pub struct Refiner {
     pub step_tolerance: f64,
     /// Relative cost-reduction tolerance.
     pub cost_tolerance: f64,
-    /// Largest number of noise re-estimations (estimated noise only).
+    /// Largest number of noise estimations (estimated noise only, at least 1).
     pub max_noise_updates: usize,
 }
 
@@ -518,8 +518,12 @@ impl Refiner {
                 return bad(format!("{name} = {v} must be finite and non-negative"));
             }
         }
-        if let NoiseModel::Known(levels) = &self.noise {
-            check_levels(levels)?;
+        match &self.noise {
+            NoiseModel::Known(levels) => check_levels(levels)?,
+            _ if self.max_noise_updates == 0 => {
+                return bad("estimated noise needs max_noise_updates >= 1".into());
+            }
+            _ => {}
         }
         Ok(())
     }
@@ -642,49 +646,33 @@ impl Refiner {
                 .map(|l| rms(&|rec: &Record| rec.inputs.row(l).norm_squared()))
                 .collect(),
         };
-        let mut noise = match &self.noise {
-            NoiseModel::Known(levels) => {
-                assert_eq!(
-                    levels.outputs.len(),
-                    m,
-                    "refine: one output noise level per output"
-                );
-                assert_eq!(
-                    levels.inputs.len(),
-                    r,
-                    "refine: one input noise level per input"
-                );
-                Noise {
-                    outputs: levels.outputs.clone(),
-                    inputs: levels.inputs.clone(),
-                }
-            }
-            _ => {
-                let unit = Noise {
-                    outputs: vec![1.0; m],
-                    inputs: vec![0.0; r],
-                };
-                let ev = problem.evaluate(&theta0, &unit, Want::Cost, true)?;
-                fit.estimate_inputs = matches!(self.noise, NoiseModel::Estimate);
-                likelihood::initial_noise(&problem.spectra, &ev, &fit)
-            }
-        };
-        let estimating = !matches!(self.noise, NoiseModel::Known(_)) && self.max_noise_updates > 0;
+        if let NoiseModel::Known(levels) = &self.noise {
+            assert_eq!(
+                levels.outputs.len(),
+                m,
+                "refine: one output noise level per output"
+            );
+            assert_eq!(
+                levels.inputs.len(),
+                r,
+                "refine: one input noise level per input"
+            );
+        }
         let strict = lm::Settings {
             max_iterations: self.max_iterations,
             gradient_tolerance: self.gradient_tolerance,
             step_tolerance: self.step_tolerance,
             cost_tolerance: self.cost_tolerance,
         };
-        // Before the last noise update the parameters need not be converged tightly:
-        // the noise levels change them only at second order.
+        // Before the last run the parameters need not be converged tightly: the noise
+        // levels move them only at second order.
         let loose = lm::Settings {
             gradient_tolerance: self.gradient_tolerance.max(LOOSE_TOLERANCE),
             step_tolerance: self.step_tolerance.max(LOOSE_TOLERANCE),
             cost_tolerance: self.cost_tolerance.max(LOOSE_TOLERANCE * LOOSE_TOLERANCE),
             ..strict
         };
-        // Residuals are kept at every point: the noise fit uses those of the last one.
+        // Residuals are kept at every point: the noise fit uses those of a run's last one.
         let run = |theta: DVector<f64>,
                    noise: &Noise,
                    settings: lm::Settings,
@@ -698,7 +686,7 @@ impl Refiner {
                         Want::Jacobian {
                             weight_derivative: true,
                         },
-                        estimating,
+                        true,
                     )?;
                     Ok(lm::Point {
                         cost: ev.cost,
@@ -710,33 +698,49 @@ impl Refiner {
             let start = eval(&theta)?;
             Ok(lm::minimize(theta, start, settings, mu, |t| eval(t).ok()))
         };
-        let mut outcome = run(
-            theta0.clone(),
-            &noise,
-            if estimating { loose } else { strict },
-            lm::INITIAL_DAMPING,
-        )?;
+
+        // First run: weights from the initial residuals (see `likelihood::initial_noise`),
+        // a robust start whatever the noise model.
+        let unit = Noise {
+            outputs: vec![1.0; m],
+            inputs: vec![0.0; r],
+        };
+        let ev = problem.evaluate(&theta0, &unit, Want::Cost, true)?;
+        let mut noise = likelihood::initial_noise(&problem.spectra, &ev, &fit);
+        let mut outcome = run(theta0.clone(), &noise, loose, lm::INITIAL_DAMPING)?;
         let mut iterations = outcome.iterations;
         let mut noise_updates = 0;
-        if estimating {
-            fit.estimate_inputs = matches!(self.noise, NoiseModel::Estimate);
-            loop {
-                let new = likelihood::estimate_noise(&problem.spectra, &outcome.point.extra, &fit);
-                let change = relative_change(&noise, &new);
-                noise = new;
-                noise_updates += 1;
-                let last =
-                    change < NOISE_CHANGE_TOLERANCE || noise_updates >= self.max_noise_updates;
-                outcome = run(
-                    outcome.theta.clone(),
-                    &noise,
-                    if last { strict } else { loose },
-                    outcome.damping,
-                )?;
-                iterations += outcome.iterations;
-                if last {
-                    break;
+        fit.estimate_inputs = matches!(self.noise, NoiseModel::Estimate);
+        loop {
+            let (new, last) = match &self.noise {
+                NoiseModel::Known(levels) => (
+                    Noise {
+                        outputs: levels.outputs.clone(),
+                        inputs: levels.inputs.clone(),
+                    },
+                    true,
+                ),
+                _ => {
+                    let new =
+                        likelihood::estimate_noise(&problem.spectra, &outcome.point.extra, &fit);
+                    noise_updates += 1;
+                    let change = relative_change(&noise, &new);
+                    (
+                        new,
+                        change < NOISE_CHANGE_TOLERANCE || noise_updates >= self.max_noise_updates,
+                    )
                 }
+            };
+            noise = new;
+            outcome = run(
+                outcome.theta.clone(),
+                &noise,
+                if last { strict } else { loose },
+                outcome.damping,
+            )?;
+            iterations += outcome.iterations;
+            if last {
+                break;
             }
         }
         let theta = outcome.theta;
@@ -838,7 +842,6 @@ impl Refiner {
             self.intersample,
             None,
         )?;
-        let mut records = Vec::with_capacity(inputs.len());
         for (h, u) in inputs.iter().enumerate() {
             assert_eq!(
                 u.nrows(),
@@ -853,9 +856,12 @@ impl Refiner {
                     value: u[(row, sample)],
                 }));
             }
-            let y = spectra::noise_free_outputs(&plain, u);
-            records.push(Record::new(u.clone(), y));
         }
+        let records: Vec<Record> = inputs
+            .iter()
+            .zip(spectra::noise_free_outputs(&plain, inputs))
+            .map(|(u, y)| Record::new(u.clone(), y))
+            .collect();
         let problem = self.problem(&records, dt_s, n)?;
         let noise = Noise {
             outputs: noise.outputs.clone(),

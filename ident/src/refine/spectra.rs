@@ -127,27 +127,31 @@ impl Spectra {
     }
 }
 
-/// Noise-free outputs of `model` for `inputs` (r x N, the structure at rest before the
-/// record): exact discrete simulation for held inputs; for band-limited inputs, the
-/// product of the input's DFT with `H(j omega)` on a zero-padded grid long enough for the
-/// response to decay (the band-limited convolution of the record with the structure).
-pub(crate) fn noise_free_outputs(model: &Model, inputs: &DMatrix<f64>) -> DMatrix<f64> {
+/// Noise-free outputs of `model` for each input record (r x N, the structure at rest
+/// before the record): exact discrete simulation for held inputs; for band-limited inputs,
+/// the product of the input's DFT with `H(j omega)` on a zero-padded grid long enough for
+/// the response to decay (the band-limited convolution of the record with the structure).
+pub(crate) fn noise_free_outputs(model: &Model, inputs: &[DMatrix<f64>]) -> Vec<DMatrix<f64>> {
     let n = model.n;
-    let len = inputs.ncols();
     match model.intersample {
         Intersample::Zoh => {
             let ad = model.ad.map(|z| z.re);
             let bd = model.bd.map(|z| z.re);
             let c = model.c.map(|z| z.re);
             let d = model.d.map(|z| z.re);
-            let mut y = DMatrix::zeros(n, len);
-            let mut x = nalgebra::DVector::zeros(2 * n);
-            for t in 0..len {
-                let u = inputs.column(t);
-                y.set_column(t, &(&c * &x + &d * u));
-                x = &ad * x + &bd * u;
-            }
-            y
+            inputs
+                .iter()
+                .map(|u| {
+                    let mut y = DMatrix::zeros(n, u.ncols());
+                    let mut x = nalgebra::DVector::zeros(2 * n);
+                    for t in 0..u.ncols() {
+                        let ut = u.column(t);
+                        y.set_column(t, &(&c * &x + &d * ut));
+                        x = &ad * x + &bd * ut;
+                    }
+                    y
+                })
+                .collect()
         }
         Intersample::Bandlimited => {
             // Slowest decay rate of the structure: pad so that it decays by e^-40.
@@ -159,66 +163,86 @@ pub(crate) fn noise_free_outputs(model: &Model, inputs: &DMatrix<f64>) -> DMatri
             } else {
                 usize::MAX
             };
-            let padded = (2 * len)
-                .saturating_add(decay)
-                .min(1 << 22)
-                .next_power_of_two();
+            let r = model.r;
             let mut planner = FftPlanner::new();
-            let fwd = planner.plan_fft_forward(padded);
-            let inv = planner.plan_fft_inverse(padded);
-            let r = inputs.nrows();
-            let mut uspec = Vec::with_capacity(r);
-            for l in 0..r {
-                let mut buf = vec![C64::new(0.0, 0.0); padded];
-                for t in 0..len {
-                    buf[t] = C64::new(inputs[(l, t)], 0.0);
-                }
-                fwd.process(&mut buf);
-                uspec.push(buf);
-            }
-            let mut yspec = vec![vec![C64::new(0.0, 0.0); padded]; n];
-            let mut q = vec![C64::new(0.0, 0.0); n * n];
-            let mut qi = vec![C64::new(0.0, 0.0); n * n];
-            for k in 0..=padded / 2 {
-                let omega = 2.0 * PI * k as f64 / (padded as f64 * model.dt);
-                for j in 0..n {
-                    for i in 0..n {
-                        q[i + j * n] = C64::new(
-                            model.stiffness[(i, j)] - omega * omega * model.mass[(i, j)],
-                            omega * model.damping[(i, j)],
-                        );
+            // H(j omega) per padded length, shared by the records of that length.
+            let mut frfs: BTreeMap<usize, Vec<Option<Vec<C64>>>> = BTreeMap::new();
+            let mut out = Vec::with_capacity(inputs.len());
+            for u in inputs {
+                let len = u.ncols();
+                let padded = (2 * len)
+                    .saturating_add(decay)
+                    .min(1 << 22)
+                    .next_power_of_two();
+                let frf = frfs
+                    .entry(padded)
+                    .or_insert_with(|| frequency_response(model, padded));
+                let fwd = planner.plan_fft_forward(padded);
+                let inv = planner.plan_fft_inverse(padded);
+                let mut uspec = Vec::with_capacity(r);
+                for l in 0..r {
+                    let mut buf = vec![C64::new(0.0, 0.0); padded];
+                    for t in 0..len {
+                        buf[t] = C64::new(u[(l, t)], 0.0);
                     }
+                    fwd.process(&mut buf);
+                    uspec.push(buf);
                 }
-                if !super::dense::invert(&mut q, n, &mut qi) {
-                    continue;
-                }
+                let mut y = DMatrix::zeros(n, len);
+                let mut spec = vec![C64::new(0.0, 0.0); padded];
                 for i in 0..n {
-                    let mut v = C64::new(0.0, 0.0);
-                    for l in 0..r {
-                        let mut h = C64::new(0.0, 0.0);
-                        for j in 0..n {
-                            h += qi[i + j * n] * model.b2[(j, l)];
+                    spec.fill(C64::new(0.0, 0.0));
+                    for (k, h) in frf.iter().enumerate() {
+                        let Some(h) = h else { continue };
+                        let mut v = C64::new(0.0, 0.0);
+                        for l in 0..r {
+                            v += h[i + l * n] * uspec[l][k];
                         }
-                        v += h * (-omega * omega) * uspec[l][k];
+                        if 2 * k == padded {
+                            // The band-limited response is real at Nyquist.
+                            v = C64::new(v.re, 0.0);
+                        }
+                        spec[k] = v;
+                        if k > 0 && 2 * k < padded {
+                            spec[padded - k] = v.conj();
+                        }
                     }
-                    if 2 * k == padded {
-                        // The band-limited response is real at Nyquist.
-                        v = C64::new(v.re, 0.0);
-                    }
-                    yspec[i][k] = v;
-                    if k > 0 && 2 * k < padded {
-                        yspec[i][padded - k] = v.conj();
+                    inv.process(&mut spec);
+                    for t in 0..len {
+                        y[(i, t)] = spec[t].re / padded as f64;
                     }
                 }
+                out.push(y);
             }
-            let mut y = DMatrix::zeros(n, len);
-            for (i, spec) in yspec.iter_mut().enumerate() {
-                inv.process(spec);
-                for t in 0..len {
-                    y[(i, t)] = spec[t].re / padded as f64;
-                }
-            }
-            y
+            out
         }
     }
+}
+
+/// `H(j omega_k) = -omega^2 (K - omega^2 M + j omega R)^-1 B2` (n x r, column-major) for the
+/// bins `0..=padded/2` of a DFT of length `padded`; `None` where it does not exist.
+fn frequency_response(model: &Model, padded: usize) -> Vec<Option<Vec<C64>>> {
+    let (n, r) = (model.n, model.r);
+    let mut q = vec![C64::new(0.0, 0.0); n * n];
+    let mut qi = vec![C64::new(0.0, 0.0); n * n];
+    (0..=padded / 2)
+        .map(|k| {
+            let omega = 2.0 * PI * k as f64 / (padded as f64 * model.dt);
+            for j in 0..n {
+                for i in 0..n {
+                    q[i + j * n] = C64::new(
+                        model.stiffness[(i, j)] - omega * omega * model.mass[(i, j)],
+                        omega * model.damping[(i, j)],
+                    );
+                }
+            }
+            if !super::dense::invert(&mut q, n, &mut qi) {
+                return None;
+            }
+            let mut h = vec![C64::new(0.0, 0.0); n * r];
+            super::dense::mul(&qi, n, n, model.b2.as_slice(), r, &mut h);
+            h.iter_mut().for_each(|v| *v *= -omega * omega);
+            Some(h)
+        })
+        .collect()
 }
