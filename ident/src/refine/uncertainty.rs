@@ -89,7 +89,10 @@ fn matrix_std(
 }
 
 /// Modal parameters of `model` (built with derivatives) and their standard deviations.
-fn modal_estimates(model: &Model, cov: &DMatrix<f64>) -> Result<Vec<ModalEstimate>, RefineError> {
+pub(crate) fn modal_estimates(
+    model: &Model,
+    cov: &DMatrix<f64>,
+) -> Result<Vec<ModalEstimate>, RefineError> {
     let der = model
         .derivatives
         .as_ref()
