@@ -133,50 +133,112 @@ fn campaign_levels(records: &[Record], fraction: f64, force: bool) -> NoiseLevel
     }
 }
 
+/// The bound for the paper's case 1 (eq. 44-45, damping 0.1755 M + 3.2283e-5 K), ten
+/// band-limited hits, 1 % noise of each output channel's RMS; with and without 1 % noise on
+/// the force.
 #[test]
 fn paper_case1_bound() {
     let mass = DMatrix::from_row_slice(2, 2, &[0.2913, 0.0153, 0.0153, 0.3387]);
     let stiffness = DMatrix::from_row_slice(2, 2, &[630.44, -425.83, -425.83, 439.01]);
     let damping = &mass * 0.1755 + &stiffness * 3.2283e-5;
     let frame = Frame {
-        mass: mass.clone(),
-        stiffness: stiffness.clone(),
-        damping: damping.clone(),
+        mass,
+        stiffness,
+        damping,
     };
+    let truth = truth(&frame);
     let mut rng = ChaCha8Rng::seed_from_u64(1000);
-    let truth = SecondOrder::new(mass, stiffness, damping);
-    for intersample in [Intersample::Bandlimited, Intersample::Zoh] {
-        let hit_list = hits(&mut rng, 10, 64);
-        let records = match intersample {
-            Intersample::Zoh => held_records(&frame, &hit_list),
-            Intersample::Bandlimited => bandlimited_records(&frame, &hit_list),
+    let records = bandlimited_records(&frame, &hits(&mut rng, 10, 64));
+    let inputs: Vec<DMatrix<f64>> = records.iter().map(|r| r.inputs.clone()).collect();
+    let refiner = Refiner::default().intersample(Intersample::Bandlimited);
+    for force in [false, true] {
+        let levels = campaign_levels(&records, 0.01, force);
+        let t0 = std::time::Instant::now();
+        let b = refiner.cramer_rao(&truth, DT_S, &inputs, &levels).unwrap();
+        let elapsed = t0.elapsed();
+        println!(
+            "case 1, 1 % output noise, force noise {force} (bound computed in {elapsed:.1?}):"
+        );
+        let pct = |std: &DMatrix<f64>, v: &DMatrix<f64>, i: usize, j: usize| {
+            100.0 * std[(i, j)] / v[(i, j)].abs()
         };
-        let inputs: Vec<DMatrix<f64>> = records.iter().map(|r| r.inputs.clone()).collect();
-        for force in [false, true] {
-            let levels = campaign_levels(&records, 0.01, force);
-            let t0 = std::time::Instant::now();
-            let b = Refiner::default()
-                .intersample(intersample)
-                .cramer_rao(&truth, DT_S, &inputs, &levels)
-                .unwrap();
-            let el = t0.elapsed();
-            let pct =
-                |s: &DMatrix<f64>, v: &DMatrix<f64>| s.component_div(v).map(|x| 100.0 * x.abs());
-            println!("case 1, {intersample:?}, force noise {force} ({el:?}):");
-            println!("  M std %: {}", pct(&b.mass_std, &truth.mass));
-            println!("  K std %: {}", pct(&b.stiffness_std, &truth.stiffness));
-            println!("  damping std %: {}", pct(&b.damping_std, &truth.damping));
-            for md in &b.modes {
-                println!(
-                    "  f {:.5} Hz +- {:.2e} %, xi {:.5} +- {:.2e} %",
-                    md.frequency_hz,
-                    100.0 * md.frequency_std_hz / md.frequency_hz,
-                    md.damping_ratio,
-                    100.0 * md.damping_ratio_std / md.damping_ratio
-                );
+        for (name, v, std) in [
+            ("M", &truth.mass, &b.mass_std),
+            ("K", &truth.stiffness, &b.stiffness_std),
+            ("R", &truth.damping, &b.damping_std),
+        ] {
+            println!(
+                "  {name}: [0,0] {:.4} %  [0,1] {:.4} %  [1,1] {:.4} %",
+                pct(std, v, 0, 0),
+                pct(std, v, 0, 1),
+                pct(std, v, 1, 1)
+            );
+        }
+        for md in &b.modes {
+            println!(
+                "  f {:.4} Hz +- {:.2e} %, xi {:.5} +- {:.3} %",
+                md.frequency_hz,
+                100.0 * md.frequency_std_hz / md.frequency_hz,
+                md.damping_ratio,
+                100.0 * md.damping_ratio_std / md.damping_ratio
+            );
+        }
+        // The claim to verify: "about 0.03 % for M and K and about 1 % for the damping
+        // matrix". The diagonal entries of M and K are within 0.01-0.1 % and those of the
+        // damping matrix within 0.5-2 % (measured without force noise: M 0.021/0.045 %,
+        // K 0.030/0.053 %, damping 1.05/1.15 %; the small off-diagonal mass 0.0153 kg is
+        // known to 0.47 %, the off-diagonal damping to 2.2 %; force noise adds 5-30 %).
+        for i in 0..2 {
+            for (v, std, lo, hi) in [
+                (&truth.mass, &b.mass_std, 0.01, 0.1),
+                (&truth.stiffness, &b.stiffness_std, 0.01, 0.1),
+                (&truth.damping, &b.damping_std, 0.5, 2.0),
+            ] {
+                let p = pct(std, v, i, i);
+                assert!(p > lo && p < hi, "{p} % not in ({lo}, {hi})");
             }
         }
     }
+}
+
+/// One refinement of a 10-hit, 2-DOF, 2048-sample band-limited campaign at 1 % noise (from
+/// MKR-like errors) and one bound. In release both take well under a second (reported);
+/// the limit here is for the test profile on a loaded machine.
+#[test]
+fn timing_of_one_refinement_and_one_bound() {
+    let frame = frame2();
+    let mut rng = ChaCha8Rng::seed_from_u64(1100);
+    let clean = bandlimited_records(&frame, &hits(&mut rng, 10, 64));
+    let levels = campaign_levels(&clean, 0.01, true);
+    let mut records = clean.clone();
+    for rec in records.iter_mut() {
+        for (i, s) in levels.outputs.iter().enumerate() {
+            for k in 0..rec.len() {
+                rec.outputs[(i, k)] += s * rng.sample::<f64, _>(rand_distr::StandardNormal);
+            }
+        }
+        for k in 0..rec.len() {
+            rec.inputs[(0, k)] +=
+                levels.inputs[0] * rng.sample::<f64, _>(rand_distr::StandardNormal);
+        }
+    }
+    let start = perturbed(&frame, &mut rng);
+    let refiner = Refiner::default();
+    let t0 = std::time::Instant::now();
+    let r = refiner.refine(&records, DT_S, &start).unwrap();
+    let refine_time = t0.elapsed();
+    let inputs: Vec<DMatrix<f64>> = clean.iter().map(|r| r.inputs.clone()).collect();
+    let t0 = std::time::Instant::now();
+    refiner
+        .cramer_rao(&truth(&frame), DT_S, &inputs, &levels)
+        .unwrap();
+    let bound_time = t0.elapsed();
+    println!(
+        "one refinement: {refine_time:.1?} ({} steps, {} noise updates, {}); one bound: {bound_time:.1?}",
+        r.iterations, r.noise_updates, r.stop
+    );
+    assert!(r.stop.converged());
+    assert!(refine_time.as_secs_f64() < 5.0 && bound_time.as_secs_f64() < 5.0);
 }
 
 fn held_campaign() -> (Frame, Vec<Record>) {
@@ -355,4 +417,43 @@ fn matrices_must_have_one_size() {
         DMatrix::identity(3, 3),
         DMatrix::identity(2, 2),
     );
+}
+
+/// The bound and the refinement share one likelihood: on noise-free band-limited records
+/// (the generator's, not the bound's own simulation) with the same noise levels, the
+/// Fisher information the refinement reports at its estimate equals the bound's.
+#[test]
+fn refinement_and_bound_share_the_likelihood() {
+    let mut rng = ChaCha8Rng::seed_from_u64(960);
+    for (frame, parametrization) in [
+        (with_storey_dashpot(frame2(), 0.2), Parametrization::Full),
+        (frame3(), shear3()),
+    ] {
+        let records = bandlimited_records(&frame, &hits(&mut rng, 3, 64));
+        let levels = campaign_levels(&records, 0.01, true);
+        let refiner = Refiner::default()
+            .parametrization(parametrization)
+            .noise(NoiseModel::Known(levels.clone()));
+        let truth = truth(&frame);
+        let refined = refiner.refine(&records, DT_S, &truth).unwrap();
+        let inputs: Vec<DMatrix<f64>> = records.iter().map(|r| r.inputs.clone()).collect();
+        let bound = refiner.cramer_rao(&truth, DT_S, &inputs, &levels).unwrap();
+        let diff = (&refined.uncertainty.fisher - &bound.fisher).norm() / bound.fisher.norm();
+        let worst_std = refined
+            .uncertainty
+            .parameter_std
+            .iter()
+            .zip(bound.parameter_std.iter())
+            .map(|(a, b)| ((a - b) / b).abs())
+            .fold(0.0, f64::max);
+        println!(
+            "{} DOF: Fisher relative difference {diff:.1e}, worst parameter std {worst_std:.1e}",
+            frame.dofs()
+        );
+        // What differs: the estimate (1e-9 from the truth), and the responses (the
+        // generator's analytic hammer spectrum vs the bound's FFT product of the sampled
+        // force, which differ by the filter precursor cut at the record start). Measured
+        // 1e-6 to 3e-6.
+        assert!(diff < 1e-4 && worst_std < 1e-4, "{diff:e} {worst_std:e}");
+    }
 }
