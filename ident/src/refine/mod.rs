@@ -71,6 +71,15 @@
 //! Levenberg–Marquardt with Moré's scaling; steps that make M or K indefinite are rejected
 //! like steps that increase the cost. The stop reason is data ([`StopReason`]).
 //!
+//! The first run weighs the bins by the residuals of the initial guess (mostly model error,
+//! largest near the resonances, so the resonances are down-weighted): a relative-error fit
+//! whose cost is much smoother than an absolute fit of sharp peaks at slightly wrong
+//! frequencies. From M and K entries 2 % off (first frequency up to 7 % off) and damping x3,
+//! all 300 trials of the efficiency test (1 % noise) converged, and the 20 also refined
+//! from MKR's start reached the same optimum. Then the noise levels (estimated or given)
+//! take over, with tight tolerances in the last run. A model with an overdamped mode has fewer oscillatory modes
+//! than DOFs: a refinement that ends so from a poor start has found a local minimum.
+//!
 //! ```no_run
 //! use ident::refine::{Refiner, SecondOrder};
 //! use ident::{Identifier, Intersample, Record};
@@ -303,7 +312,8 @@ pub struct Uncertainty {
     pub stiffness_std: DMatrix<f64>,
     /// Standard deviation of each damping entry.
     pub damping_std: DMatrix<f64>,
-    /// Oscillatory modes in ascending frequency with standard deviations (delta method).
+    /// Oscillatory modes (complex poles) in ascending frequency with standard deviations
+    /// (delta method); an overdamped mode (two real poles) is not listed.
     pub modes: Vec<ModalEstimate>,
 }
 
