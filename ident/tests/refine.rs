@@ -7,6 +7,7 @@ use common::*;
 use ident::mkr::MatrixKind;
 use ident::refine::{
     Dashpot, Node, NoiseLevels, NoiseModel, Parametrization, RefineError, Refiner, SecondOrder,
+    StopReason,
 };
 use ident::{Channel, DataError, Intersample, Record};
 use nalgebra::DMatrix;
@@ -456,4 +457,20 @@ fn refinement_and_bound_share_the_likelihood() {
         // 1e-6 to 3e-6.
         assert!(diff < 1e-4 && worst_std < 1e-4, "{diff:e} {worst_std:e}");
     }
+}
+
+/// Stop reasons are data: an iteration limit is reported, not raised.
+#[test]
+fn iteration_limit_is_a_stop_reason() {
+    let mut rng = ChaCha8Rng::seed_from_u64(1200);
+    let frame = frame2();
+    let records = bandlimited_records(&frame, &hits(&mut rng, 2, 64));
+    let start = perturbed(&frame, &mut rng);
+    let r = Refiner::default()
+        .max_iterations(1)
+        .refine(&records, DT_S, &start)
+        .unwrap();
+    assert_eq!(r.stop, StopReason::MaxIterations);
+    assert!(!r.stop.converged());
+    assert!(r.cost < r.initial_cost);
 }

@@ -40,8 +40,8 @@
 //! force `l` (the force channel is noisy too). With the true force eliminated
 //! (errors-in-variables), the residual `e = Y - G U - T xi` of bin `k` has covariance
 //! `N (Sy + G Su G^H)`; the cost is `sum_h sum_k w_k e^H (Sy + G Su G^H)^-1 e / N` (`w_k = 1`
-//! for the real DC and Nyquist bins, 2 for the others), twice the negative log-likelihood
-//! up to a constant. For one output this is Pintelon and Schoukens' `|e|^2 / (sigma_y^2 +
+//! for the real DC and Nyquist bins, 2 for the others): twice the negative log-likelihood
+//! maximized over the unknown true force, up to a constant. For one output this is Pintelon and Schoukens' `|e|^2 / (sigma_y^2 +
 //! |G|^2 sigma_u^2)`; the full matrix keeps the correlation the common force noise puts
 //! between outputs. The weight depends on the parameters; it is whitened by its Cholesky
 //! factor and differentiated exactly (Cholesky derivative), so the Gauss-Newton steps
@@ -77,8 +77,9 @@
 //! frequencies. From M and K entries 2 % off (first frequency up to 7 % off) and damping x3,
 //! all 300 trials of the efficiency test (1 % noise) converged, and the 20 also refined
 //! from MKR's start reached the same optimum. Then the noise levels (estimated or given)
-//! take over, with tight tolerances in the last run. A model with an overdamped mode has fewer oscillatory modes
-//! than DOFs: a refinement that ends so from a poor start has found a local minimum.
+//! take over, with tight tolerances in the last run. A model with an overdamped mode has
+//! fewer oscillatory modes than DOFs: a refinement that ends so from a poor start has
+//! found a local minimum.
 //!
 //! ```no_run
 //! use ident::refine::{Refiner, SecondOrder};
