@@ -6,7 +6,9 @@
 //! tested structure from input/output records, [ERA/DC](era) turns them into a discrete state
 //! space realization, [`modal`] extracts poles, mode shapes and accuracy indicators,
 //! [`rayleigh`] fits proportional damping and [`mkr`] builds the second-order model
-//! (M, K and damping). [`pipeline::Identifier`] runs the whole chain.
+//! (M, K and damping). [`pipeline::Identifier`] runs the whole chain. [`refine`] then
+//! refines M, K and damping by maximum likelihood on all hits at once (any symmetric
+//! damping, with standard errors) and gives the Cramér–Rao bound of a campaign.
 //!
 //! # Conventions
 //!
@@ -73,6 +75,7 @@ pub mod okid;
 pub mod pipeline;
 pub mod rayleigh;
 pub mod record;
+pub mod refine;
 pub mod statespace;
 
 #[cfg(test)]
@@ -85,4 +88,8 @@ pub use okid::{ObserverOrder, Okid, OkidError, OkidParams};
 pub use pipeline::{Error, Identification, Identifier, ValidIdentifier, Warning};
 pub use rayleigh::{Rayleigh, RayleighError};
 pub use record::{Channel, DataError, Record};
+pub use refine::{
+    Dashpot, ModalEstimate, Node, NoiseLevels, NoiseModel, Parametrization, RefineError,
+    Refinement, Refiner, SecondOrder, StopReason, Uncertainty,
+};
 pub use statespace::StateSpace;

@@ -1,0 +1,790 @@
+//! The frequency-domain likelihood: model per bin, whitening, variable projection of the
+//! per-hit transients and the Gauss-Newton (Fisher) matrix.
+//!
+//! Per hit `h` and bin `k` the residual is
+//! `e_hk = Y_hk - G_k U_hk - T_k xi_h`, `T_k = C (I - A_d / z_k)^-1 = z_k C (z_k I - A_d)^-1`,
+//! with covariance `N (Sy + G_k Su G_k^H)` (`Sy`, `Su` diagonal noise variances of the
+//! outputs and inputs; errors-in-variables, the true input eliminated). With the Cholesky
+//! factor `L_k L_k^H = Sy + G_k Su G_k^H` the whitened residual is
+//! `r_hk = sqrt(w_k / N) L_k^-1 e_hk`, split into real and imaginary parts; the cost is
+//! `sum |r|^2` (twice the negative log-likelihood up to a constant, each real term of unit
+//! variance at the truth).
+//!
+//! The transient vector `xi_h` (2n real numbers per hit) enters linearly: for given
+//! parameters it is solved by least squares (variable projection), and the Gauss-Newton
+//! matrix is the Schur complement `J^T J - J^T X (X^T X)^-1 X^T J` (`X = dr/dxi`), the
+//! information about the parameters with the transients eliminated. The gradient `J^T r`
+//! of the projected cost is exact (`X^T r = 0` at the projected solution).
+
+use super::dense;
+use super::model::Model;
+use super::param::Parameter;
+use super::spectra::{Bin, Spectra};
+use crate::linalg::C64;
+use crate::mkr::MatrixKind;
+use crate::modal::Intersample;
+use nalgebra::{DMatrix, DVector, SymmetricEigen};
+
+const ZERO: C64 = C64::new(0.0, 0.0);
+
+/// Noise standard deviations (time domain, per sample).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Noise {
+    /// Per output channel.
+    pub outputs: Vec<f64>,
+    /// Per input channel (0 for a noise-free force).
+    pub inputs: Vec<f64>,
+}
+
+impl Noise {
+    fn errors_in_variables(&self) -> bool {
+        self.inputs.iter().any(|&s| s > 0.0)
+    }
+}
+
+/// What to compute besides the cost.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Want {
+    /// Cost and transients only.
+    Cost,
+    /// Also the Gauss-Newton matrix and gradient. With `weight_derivative`, the Jacobian
+    /// includes the parameter dependence of the errors-in-variables weighting (exact
+    /// Jacobian of the cost); without it, the matrix is the expected Fisher information.
+    Jacobian { weight_derivative: bool },
+}
+
+/// Result of one evaluation.
+#[derive(Debug, Clone)]
+pub(crate) struct Evaluation {
+    /// `sum |r|^2`.
+    pub cost: f64,
+    /// Transient vector per hit.
+    pub xi: Vec<DVector<f64>>,
+    /// Gauss-Newton matrix `J^T J` with the transients eliminated.
+    pub fisher: Option<DMatrix<f64>>,
+    /// `J^T r` (half the gradient of the cost).
+    pub gradient: Option<DVector<f64>>,
+    /// Unwhitened residuals per hit (m x bins), if kept.
+    pub residuals: Option<Vec<DMatrix<C64>>>,
+    /// Per group, `|G_il|^2` (row `i + l m`) per bin, if residuals are kept.
+    pub gains: Option<Vec<DMatrix<f64>>>,
+    /// Per hit, the realified whitened matrices before elimination (tests).
+    #[cfg(test)]
+    pub matrices: Vec<HitMatrices>,
+}
+
+/// Realified whitened residual (projected), transient regressors and Jacobian of one hit.
+#[cfg(test)]
+#[derive(Debug, Clone)]
+pub(crate) struct HitMatrices {
+    /// Before the projection (without the transient).
+    pub r0: DVector<f64>,
+    pub x: DMatrix<f64>,
+    pub j: Option<DMatrix<f64>>,
+}
+
+/// The model has no finite response at some bin.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Singular;
+
+/// Per-bin model quantities.
+struct BinWork {
+    n: usize,
+    m: usize,
+    s: usize,
+    r: usize,
+    tmp: Vec<C64>,
+    /// `(z I - A_d)^-1`, s x s.
+    res: Vec<C64>,
+    /// `C (z I - A_d)^-1`, m x s.
+    cr: Vec<C64>,
+    /// `(z I - A_d)^-1 B_d`, s x r (held inputs).
+    rb: Vec<C64>,
+    /// `(K - w^2 M + j w R)^-1`, n x n (band-limited).
+    qi: Vec<C64>,
+    /// FRF, m x r.
+    g: Vec<C64>,
+    /// Whitening factor, m x m lower triangular.
+    l: Vec<C64>,
+    cov: Vec<C64>,
+}
+
+impl BinWork {
+    fn new(model: &Model) -> Self {
+        let (n, r) = (model.n, model.r);
+        let (m, s) = (n, 2 * n);
+        Self {
+            n,
+            m,
+            s,
+            r,
+            tmp: vec![ZERO; s * s],
+            res: vec![ZERO; s * s],
+            cr: vec![ZERO; m * s],
+            rb: vec![ZERO; s * r],
+            qi: vec![ZERO; n * n],
+            g: vec![ZERO; m * r],
+            l: vec![ZERO; m * m],
+            cov: vec![ZERO; m * m],
+        }
+    }
+
+    fn compute(&mut self, model: &Model, bin: &Bin, noise: &Noise) -> Result<(), Singular> {
+        let (n, m, s, r) = (self.n, self.m, self.s, self.r);
+        let ad = model.ad.as_slice();
+        for (t, a) in self.tmp.iter_mut().zip(ad) {
+            *t = -a;
+        }
+        for i in 0..s {
+            self.tmp[i + i * s] += bin.z;
+        }
+        if !dense::invert(&mut self.tmp, s, &mut self.res) {
+            return Err(Singular);
+        }
+        dense::mul(model.c.as_slice(), m, s, &self.res, s, &mut self.cr);
+        match model.intersample {
+            Intersample::Zoh => {
+                dense::mul(&self.res, s, s, model.bd.as_slice(), r, &mut self.rb);
+                self.g.copy_from_slice(model.d.as_slice());
+                dense::mul_add(model.c.as_slice(), m, s, &self.rb, r, &mut self.g);
+            }
+            Intersample::Bandlimited => {
+                let w = bin.omega;
+                let q = &mut self.tmp[..n * n];
+                for j in 0..n {
+                    for i in 0..n {
+                        q[i + j * n] = C64::new(
+                            model.stiffness[(i, j)] - w * w * model.mass[(i, j)],
+                            w * model.damping[(i, j)],
+                        );
+                    }
+                }
+                if !dense::invert(q, n, &mut self.qi) {
+                    return Err(Singular);
+                }
+                dense::mul(&self.qi, n, n, model.b2.as_slice(), r, &mut self.g);
+                for v in self.g.iter_mut() {
+                    *v *= -w * w;
+                }
+            }
+        }
+        if self
+            .g
+            .iter()
+            .any(|v| !(v.re.is_finite() && v.im.is_finite()))
+        {
+            return Err(Singular);
+        }
+        if noise.errors_in_variables() {
+            for j in 0..m {
+                for i in j..m {
+                    let mut v = ZERO;
+                    for l in 0..r {
+                        let su2 = noise.inputs[l] * noise.inputs[l];
+                        v += self.g[i + l * m] * self.g[j + l * m].conj() * su2;
+                    }
+                    if i == j {
+                        v += noise.outputs[i] * noise.outputs[i];
+                    }
+                    self.cov[i + j * m] = v;
+                }
+            }
+            if !dense::cholesky(&self.cov, m, &mut self.l) {
+                return Err(Singular);
+            }
+        } else {
+            self.l.fill(ZERO);
+            for i in 0..m {
+                self.l[i + i * m] = C64::new(noise.outputs[i], 0.0);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Inverse of a symmetric positive semi-definite matrix after diagonal (Jacobi) scaling,
+/// dropping eigenvalues below `1e-13` of the largest (pseudo-inverse).
+pub(crate) fn spd_inverse(a: &DMatrix<f64>) -> DMatrix<f64> {
+    let k = a.nrows();
+    let d: Vec<f64> = (0..k)
+        .map(|i| {
+            let v = a[(i, i)];
+            if v > 0.0 { 1.0 / v.sqrt() } else { 1.0 }
+        })
+        .collect();
+    let scaled = DMatrix::from_fn(k, k, |i, j| a[(i, j)] * d[i] * d[j]);
+    let eig = SymmetricEigen::new(scaled);
+    let top = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
+    let mut inv = DMatrix::zeros(k, k);
+    for (idx, &lambda) in eig.eigenvalues.iter().enumerate() {
+        if lambda > 1e-13 * top {
+            let v = eig.eigenvectors.column(idx);
+            inv += (v * v.transpose()) / lambda;
+        }
+    }
+    DMatrix::from_fn(k, k, |i, j| inv[(i, j)] * d[i] * d[j])
+}
+
+/// Information and gradient of one hit from its realified, whitened Jacobian and nuisance
+/// Jacobian, both transposed (`jt = J^T`, `xt = X^T`, one column per real observation),
+/// `(X^T X)^-1` and the projected residual `r`: `J^T J - J^T X (X^T X)^-1 X^T J` and
+/// `J^T r`.
+pub(crate) fn eliminate_nuisance(
+    jt: &DMatrix<f64>,
+    xt: &DMatrix<f64>,
+    xtx_inv: &DMatrix<f64>,
+    r: &DVector<f64>,
+) -> (DMatrix<f64>, DVector<f64>) {
+    let jtj = jt * jt.transpose();
+    let jtx = jt * xt.transpose();
+    let mut f = jtj - &jtx * xtx_inv * jtx.transpose();
+    f = (&f + f.transpose()) * 0.5;
+    (f, jt * r)
+}
+
+/// Row of the real and imaginary parts of channel `i` at bin index `bi`.
+#[inline]
+fn row(bi: usize, m: usize, i: usize) -> usize {
+    2 * (bi * m + i)
+}
+
+/// Per-bin model quantities of a group, kept between the passes.
+struct Cache {
+    res: Vec<C64>,
+    cr: Vec<C64>,
+    rb: Vec<C64>,
+    qi: Vec<C64>,
+    g: Vec<C64>,
+    l: Vec<C64>,
+}
+
+impl Cache {
+    fn new(work: &BinWork, nb: usize) -> Self {
+        Self {
+            res: Vec::with_capacity(nb * work.res.len()),
+            cr: Vec::with_capacity(nb * work.cr.len()),
+            rb: Vec::with_capacity(nb * work.rb.len()),
+            qi: Vec::with_capacity(nb * work.qi.len()),
+            g: Vec::with_capacity(nb * work.g.len()),
+            l: Vec::with_capacity(nb * work.l.len()),
+        }
+    }
+
+    fn push(&mut self, work: &BinWork) {
+        self.res.extend_from_slice(&work.res);
+        self.cr.extend_from_slice(&work.cr);
+        self.rb.extend_from_slice(&work.rb);
+        self.qi.extend_from_slice(&work.qi);
+        self.g.extend_from_slice(&work.g);
+        self.l.extend_from_slice(&work.l);
+    }
+}
+
+fn slice(v: &[C64], bi: usize, len: usize) -> &[C64] {
+    &v[bi * len..(bi + 1) * len]
+}
+
+/// Evaluates the projected cost (and the Gauss-Newton matrix) at `model`.
+pub(crate) fn evaluate(
+    model: &Model,
+    params: &[Parameter],
+    spectra: &Spectra,
+    noise: &Noise,
+    want: Want,
+    keep_residuals: bool,
+) -> Result<Evaluation, Singular> {
+    let (n, r) = (model.n, model.r);
+    let (m, s) = (n, 2 * n);
+    let np = params.len();
+    let eiv = noise.errors_in_variables();
+    let mut work = BinWork::new(model);
+    let hits = spectra.hits();
+    let mut xi = vec![DVector::zeros(s); hits];
+    let mut cost = 0.0;
+    let mut fisher = DMatrix::zeros(np, np);
+    let mut gradient = DVector::zeros(np);
+    let mut residuals = keep_residuals.then(|| vec![DMatrix::zeros(0, 0); hits]);
+    let mut gains = keep_residuals.then(Vec::new);
+    let jac = match want {
+        Want::Cost => None,
+        Want::Jacobian { weight_derivative } => Some(weight_derivative && eiv),
+    };
+    let derivs = jac.map(|_| {
+        model
+            .derivatives
+            .as_ref()
+            .expect("Jacobian requested from a model built without derivatives")
+    });
+
+    #[cfg(test)]
+    let mut matrices = vec![
+        HitMatrices {
+            r0: DVector::zeros(0),
+            x: DMatrix::zeros(0, 0),
+            j: None,
+        };
+        hits
+    ];
+    let mut e = vec![ZERO; m];
+    let mut tx = vec![ZERO; m * s];
+    for group in &spectra.groups {
+        let nb = group.bins.len();
+        let rows = 2 * nb * m;
+        let sc_of = |bin: &Bin| (bin.weight / group.len as f64).sqrt();
+        // Transposed storage (one column per real observation): writes are contiguous.
+        let mut xts: Vec<DMatrix<f64>> =
+            group.hits.iter().map(|_| DMatrix::zeros(s, rows)).collect();
+        let mut rs: Vec<DVector<f64>> = group.hits.iter().map(|_| DVector::zeros(rows)).collect();
+        let mut cache = Cache::new(&work, nb);
+
+        // Pass 1: residual without transient, transient regressors.
+        for (bi, bin) in group.bins.iter().enumerate() {
+            work.compute(model, bin, noise)?;
+            cache.push(&work);
+            let sc = sc_of(bin);
+            for (v, c) in tx.iter_mut().zip(&work.cr) {
+                *v = c * bin.z;
+            }
+            dense::forward_solve(&work.l, m, &mut tx, s);
+            for (slot, &h) in group.hits.iter().enumerate() {
+                let (y, u) = (&spectra.y[h], &spectra.u[h]);
+                for i in 0..m {
+                    let mut v = y[(i, bi)];
+                    for l in 0..r {
+                        v -= work.g[i + l * m] * u[(l, bi)];
+                    }
+                    e[i] = v;
+                }
+                dense::forward_solve(&work.l, m, &mut e, 1);
+                let xt = &mut xts[slot];
+                let rv = &mut rs[slot];
+                for i in 0..m {
+                    let ro = row(bi, m, i);
+                    rv[ro] = sc * e[i].re;
+                    rv[ro + 1] = sc * e[i].im;
+                    for q in 0..s {
+                        xt[(q, ro)] = sc * tx[i + q * m].re;
+                        xt[(q, ro + 1)] = sc * tx[i + q * m].im;
+                    }
+                }
+            }
+        }
+        if let Some(all) = gains.as_mut() {
+            all.push(DMatrix::from_fn(m * r, nb, |idx, bi| {
+                cache.g[bi * m * r + idx].norm_sqr()
+            }));
+        }
+
+        #[cfg(test)]
+        let r0s = rs.clone();
+        // Transients by least squares, projected residuals.
+        let mut xtx_invs = Vec::with_capacity(group.hits.len());
+        for (slot, &h) in group.hits.iter().enumerate() {
+            let xt = &xts[slot];
+            let xtx_inv = spd_inverse(&(xt * xt.transpose()));
+            let mut sol = &xtx_inv * (xt * &rs[slot]);
+            rs[slot] -= xt.tr_mul(&sol);
+            // One step of iterative refinement: the normal equations square the condition
+            // number, and the gradient J^T r is exact only for r orthogonal to X.
+            let correction = &xtx_inv * (xt * &rs[slot]);
+            rs[slot] -= xt.tr_mul(&correction);
+            sol += correction;
+            cost += rs[slot].norm_squared();
+            xi[h] = sol;
+            xtx_invs.push(xtx_inv);
+        }
+        if !cost.is_finite() {
+            return Err(Singular);
+        }
+        #[cfg(test)]
+        for (slot, &h) in group.hits.iter().enumerate() {
+            matrices[h] = HitMatrices {
+                r0: r0s[slot].clone(),
+                x: xts[slot].transpose(),
+                j: None,
+            };
+        }
+
+        if let Some(res) = residuals.as_mut() {
+            for (slot, &h) in group.hits.iter().enumerate() {
+                let mut out = DMatrix::zeros(m, nb);
+                for (bi, bin) in group.bins.iter().enumerate() {
+                    let l = slice(&cache.l, bi, m * m);
+                    let sc = sc_of(bin);
+                    for i in 0..m {
+                        let mut v = ZERO;
+                        for k in 0..=i {
+                            let ro = row(bi, m, k);
+                            v += l[i + k * m] * C64::new(rs[slot][ro], rs[slot][ro + 1]);
+                        }
+                        out[(i, bi)] = v / sc;
+                    }
+                }
+                res[h] = out;
+            }
+        }
+
+        // Pass 2: Jacobian with respect to the parameters at fixed transients.
+        let (Some(weight_derivative), Some(der)) = (jac, derivs) else {
+            continue;
+        };
+        let mut jts: Vec<DMatrix<f64>> = group
+            .hits
+            .iter()
+            .map(|_| DMatrix::zeros(np, rows))
+            .collect();
+        let mut ma = vec![ZERO; np * m * s];
+        let mut dg = vec![ZERO; np * m * r];
+        let mut phi = vec![ZERO; np * m * m];
+        let mut bw = vec![ZERO; m * r];
+        let mut aw = vec![ZERO; m * r];
+        let mut eg = vec![ZERO; n * r];
+        let mut v = vec![ZERO; s];
+        let mut rt = vec![ZERO; m];
+        let bases: Vec<DMatrix<C64>> = params
+            .iter()
+            .map(|p| p.basis.map(|x| C64::new(x, 0.0)))
+            .collect();
+        for (bi, bin) in group.bins.iter().enumerate() {
+            let res = slice(&cache.res, bi, s * s);
+            let cr = slice(&cache.cr, bi, m * s);
+            let g = slice(&cache.g, bi, m * r);
+            let l = slice(&cache.l, bi, m * m);
+            let sc = sc_of(bin);
+            for p in 0..np {
+                let ma_p = &mut ma[p * m * s..(p + 1) * m * s];
+                ma_p.copy_from_slice(der.c[p].as_slice());
+                dense::mul_add(cr, m, s, der.ad[p].as_slice(), s, ma_p);
+                let dg_p = &mut dg[p * m * r..(p + 1) * m * r];
+                match model.intersample {
+                    Intersample::Zoh => {
+                        dg_p.copy_from_slice(der.d[p].as_slice());
+                        dense::mul_add(ma_p, m, s, slice(&cache.rb, bi, s * r), r, dg_p);
+                        dense::mul_add(cr, m, s, der.bd[p].as_slice(), r, dg_p);
+                    }
+                    Intersample::Bandlimited => {
+                        // dG = -s^2 Q^-1 dQ Q^-1 B2 = -f Q^-1 E G, dQ = f E.
+                        let w = bin.omega;
+                        let f = match params[p].matrix {
+                            MatrixKind::Mass => C64::new(-w * w, 0.0),
+                            MatrixKind::Damping => C64::new(0.0, w),
+                            MatrixKind::Stiffness => C64::new(1.0, 0.0),
+                        };
+                        dense::mul(bases[p].as_slice(), n, n, g, r, &mut eg);
+                        dense::mul(slice(&cache.qi, bi, n * n), n, n, &eg, r, dg_p);
+                        for x in dg_p.iter_mut() {
+                            *x *= -f;
+                        }
+                    }
+                }
+                // Whitened once per bin, shared by the hits.
+                dense::forward_solve(l, m, ma_p, s);
+                dense::forward_solve(l, m, dg_p, r);
+            }
+            if weight_derivative {
+                // L^-1 dC L^-H = a b^H + b a^H with b = L^-1 G Su^1/2, a = L^-1 dG Su^1/2;
+                // d(L^-1) e = -Phi(L^-1 dC L^-H) L^-1 e (Cholesky derivative).
+                for li in 0..r {
+                    for i in 0..m {
+                        bw[i + li * m] = g[i + li * m] * noise.inputs[li];
+                    }
+                }
+                dense::forward_solve(l, m, &mut bw, r);
+                for p in 0..np {
+                    for li in 0..r {
+                        for i in 0..m {
+                            aw[i + li * m] = dg[p * m * r + i + li * m] * noise.inputs[li];
+                        }
+                    }
+                    let ph = &mut phi[p * m * m..(p + 1) * m * m];
+                    for j in 0..m {
+                        for i in j..m {
+                            let mut sij = ZERO;
+                            for li in 0..r {
+                                sij += aw[i + li * m] * bw[j + li * m].conj()
+                                    + bw[i + li * m] * aw[j + li * m].conj();
+                            }
+                            ph[i + j * m] = if i == j { sij * 0.5 } else { sij };
+                        }
+                    }
+                }
+            }
+            for (slot, &h) in group.hits.iter().enumerate() {
+                let u = &spectra.u[h];
+                let xi_h = &xi[h];
+                for i in 0..s {
+                    let mut acc = ZERO;
+                    for q in 0..s {
+                        acc += res[i + q * s] * xi_h[q];
+                    }
+                    v[i] = acc * bin.z;
+                }
+                if weight_derivative {
+                    for i in 0..m {
+                        let ro = row(bi, m, i);
+                        rt[i] = C64::new(rs[slot][ro], rs[slot][ro + 1]) / sc;
+                    }
+                }
+                let jt = &mut jts[slot];
+                for i in 0..m {
+                    let ro = row(bi, m, i);
+                    for p in 0..np {
+                        let ma_p = &ma[p * m * s..(p + 1) * m * s];
+                        let dg_p = &dg[p * m * r..(p + 1) * m * r];
+                        let mut col = ZERO;
+                        for li in 0..r {
+                            col -= dg_p[i + li * m] * u[(li, bi)];
+                        }
+                        for q in 0..s {
+                            col -= ma_p[i + q * m] * v[q];
+                        }
+                        if weight_derivative {
+                            let ph = &phi[p * m * m..(p + 1) * m * m];
+                            for k in 0..=i {
+                                col -= ph[i + k * m] * rt[k];
+                            }
+                        }
+                        jt[(p, ro)] = sc * col.re;
+                        jt[(p, ro + 1)] = sc * col.im;
+                    }
+                }
+            }
+        }
+        for slot in 0..group.hits.len() {
+            let (f, g) = eliminate_nuisance(&jts[slot], &xts[slot], &xtx_invs[slot], &rs[slot]);
+            fisher += f;
+            gradient += g;
+        }
+        #[cfg(test)]
+        for (slot, &h) in group.hits.iter().enumerate() {
+            matrices[h].j = Some(jts[slot].transpose());
+        }
+    }
+    let has_jac = jac.is_some();
+    Ok(Evaluation {
+        cost,
+        xi,
+        fisher: has_jac.then_some(fisher),
+        gradient: has_jac.then_some(gradient),
+        residuals,
+        gains,
+        #[cfg(test)]
+        matrices,
+    })
+}
+
+/// Real observations (real and imaginary parts) over all hits and channels.
+pub(crate) fn observations(spectra: &Spectra, m: usize) -> usize {
+    spectra
+        .groups
+        .iter()
+        .map(|g| {
+            let per_hit: usize = g
+                .bins
+                .iter()
+                .map(|b| if b.weight > 1.5 { 2 * m } else { m })
+                .sum();
+            per_hit * g.hits.len()
+        })
+        .sum()
+}
+
+/// Noise levels for the first run, from the residuals of the initial guess (mostly model
+/// error): per output the median of `|e_ik|^2 / N` over the bins, and for the force the
+/// median of `|e_ik|^2 / (N sum_l |G_il|^2)`, so that the force term dominates wherever
+/// `|G|` is above its typical size. That is a relative-error fit near the resonances, whose
+/// cost is far smoother in the parameters than an absolute fit of sharp peaks placed at
+/// slightly wrong frequencies: it widens the basin of attraction of the first run (which
+/// uses these levels whatever the noise model). Force levels below the resolution are set
+/// to zero as usual.
+pub(crate) fn initial_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit) -> Noise {
+    let residuals = ev.residuals.as_ref().expect("residuals kept");
+    let gains = ev.gains.as_ref().expect("gains kept");
+    let (m, r) = (fit.m, fit.r);
+    let median = |mut v: Vec<f64>| -> f64 {
+        if v.is_empty() {
+            return 0.0;
+        }
+        let mid = v.len() / 2;
+        *v.select_nth_unstable_by(mid, f64::total_cmp).1
+    };
+    let mut per_output = vec![Vec::new(); m];
+    let mut ratios = Vec::new();
+    for (gi, group) in spectra.groups.iter().enumerate() {
+        for &h in &group.hits {
+            for bi in 0..group.bins.len() {
+                for i in 0..m {
+                    let q = residuals[h][(i, bi)].norm_sqr() / group.len as f64;
+                    per_output[i].push(q);
+                    let g2: f64 = (0..r).map(|l| gains[gi][(i + l * m, bi)]).sum();
+                    if g2 > 0.0 {
+                        ratios.push(q / g2);
+                    }
+                }
+            }
+        }
+    }
+    let outputs = per_output
+        .into_iter()
+        .enumerate()
+        .map(|(i, v)| median(v).sqrt().max(fit.output_floor(i)))
+        .collect();
+    let su = median(ratios).sqrt();
+    Noise {
+        outputs,
+        inputs: (0..r).map(|l| fit.input_level(l, su)).collect(),
+    }
+}
+
+/// What the noise fit needs besides the residuals.
+#[derive(Debug, Clone)]
+pub(crate) struct NoiseFit {
+    /// Outputs.
+    pub m: usize,
+    /// Inputs.
+    pub r: usize,
+    /// Whether the input (force) noise is estimated (else 0).
+    pub estimate_inputs: bool,
+    /// Observations over observations minus unknowns.
+    pub dof_factor: f64,
+    /// RMS of each output channel over all records.
+    pub output_rms: Vec<f64>,
+    /// RMS of each input channel over all records.
+    pub input_rms: Vec<f64>,
+}
+
+/// Noise levels below this fraction of a channel's RMS (200 dB, beyond any acquisition
+/// chain) are round-off of noise-free data, not noise: output levels are raised to it and
+/// force levels below it set to zero, so that the weights do not reflect round-off.
+pub(crate) const NOISE_RESOLUTION: f64 = 1e-10;
+
+impl NoiseFit {
+    fn output_floor(&self, i: usize) -> f64 {
+        NOISE_RESOLUTION * self.output_rms[i]
+    }
+
+    fn input_level(&self, l: usize, level: f64) -> f64 {
+        if level >= NOISE_RESOLUTION * self.input_rms[l] {
+            level
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Noise variances from the residuals of `ev` (evaluated with residuals kept):
+/// `E |e_ik|^2 / N = sy_i^2 + sum_l |G_il|^2 su_l^2`, fitted by maximum likelihood for
+/// exponentially distributed `|e|^2` (iteratively reweighted least squares with weights
+/// `1 / V^2`), variances kept non-negative, then corrected for the degrees of freedom used
+/// by the fit. Returns standard deviations.
+pub(crate) fn estimate_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit) -> Noise {
+    let residuals = ev.residuals.as_ref().expect("residuals kept");
+    let gains = ev.gains.as_ref().expect("gains kept");
+    let NoiseFit {
+        m,
+        r,
+        estimate_inputs,
+        dof_factor,
+        ..
+    } = *fit;
+    // Observations: (channel, |G_i.|^2, q).
+    let mut obs: Vec<(usize, usize, usize, f64)> = Vec::new(); // (channel, group, bin, q)
+    for (gi, group) in spectra.groups.iter().enumerate() {
+        for &h in &group.hits {
+            let res = &residuals[h];
+            for bi in 0..group.bins.len() {
+                for i in 0..m {
+                    obs.push((i, gi, bi, res[(i, bi)].norm_sqr() / group.len as f64));
+                }
+            }
+        }
+    }
+    let unknowns = m + if estimate_inputs { r } else { 0 };
+    let regressor = |i: usize, gi: usize, bi: usize, out: &mut [f64]| {
+        out.fill(0.0);
+        out[i] = 1.0;
+        if estimate_inputs {
+            for l in 0..r {
+                out[m + l] = gains[gi][(i + l * m, bi)];
+            }
+        }
+    };
+    // Start: output noise only, channel means.
+    let mut theta = vec![0.0; unknowns];
+    let mut counts = vec![0usize; m];
+    for &(i, _, _, q) in &obs {
+        theta[i] += q;
+        counts[i] += 1;
+    }
+    for i in 0..m {
+        theta[i] /= counts[i].max(1) as f64;
+    }
+    let mut x = vec![0.0; unknowns];
+    let mut active = vec![true; unknowns];
+    for _ in 0..30 {
+        let mut ata = DMatrix::<f64>::zeros(unknowns, unknowns);
+        let mut atb = DVector::<f64>::zeros(unknowns);
+        for &(i, gi, bi, q) in &obs {
+            regressor(i, gi, bi, &mut x);
+            let v: f64 = x.iter().zip(&theta).map(|(a, b)| a * b).sum();
+            let w = 1.0 / (v * v).max(f64::MIN_POSITIVE);
+            for a in 0..unknowns {
+                if !active[a] || x[a] == 0.0 {
+                    continue;
+                }
+                atb[a] += w * x[a] * q;
+                for b in 0..unknowns {
+                    if active[b] {
+                        ata[(a, b)] += w * x[a] * x[b];
+                    }
+                }
+            }
+        }
+        for a in 0..unknowns {
+            if !active[a] {
+                ata[(a, a)] = 1.0;
+                atb[a] = 0.0;
+            }
+        }
+        let Some(sol) = ata.clone().cholesky().map(|c| c.solve(&atb)) else {
+            break;
+        };
+        let mut changed = 0.0f64;
+        let mut any_negative = false;
+        for a in 0..unknowns {
+            let new = sol[a];
+            if active[a] && new < 0.0 {
+                any_negative = true;
+                active[a] = a < m; // output variances stay, clamped below
+            }
+            let new = new.max(0.0);
+            if theta[a] > 0.0 {
+                changed = changed.max(((new - theta[a]) / theta[a]).abs());
+            } else if new > 0.0 {
+                changed = 1.0;
+            }
+            theta[a] = new;
+        }
+        for i in 0..m {
+            theta[i] = theta[i].max(fit.output_floor(i).powi(2));
+        }
+        if changed < 1e-8 && !any_negative {
+            break;
+        }
+    }
+    Noise {
+        outputs: (0..m)
+            .map(|i| (theta[i] * dof_factor).sqrt().max(fit.output_floor(i)))
+            .collect(),
+        inputs: (0..r)
+            .map(|l| {
+                let level = if estimate_inputs {
+                    (theta[m + l] * dof_factor).sqrt()
+                } else {
+                    0.0
+                };
+                fit.input_level(l, level)
+            })
+            .collect(),
+    }
+}

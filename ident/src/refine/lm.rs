@@ -1,0 +1,159 @@
+//! Levenberg-Marquardt on a projected nonlinear least-squares cost `sum r^2`, with Moré's
+//! diagonal scaling (largest `sqrt(F_ii)` seen so far) and Nielsen's damping update. Steps
+//! the model rejects (M or K not positive definite, no finite response) are treated as
+//! steps that increase the cost.
+
+use super::StopReason;
+use nalgebra::{DMatrix, DVector};
+
+/// Settings of one run.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Settings {
+    pub max_iterations: usize,
+    pub gradient_tolerance: f64,
+    pub step_tolerance: f64,
+    pub cost_tolerance: f64,
+}
+
+/// What the cost function returns at a point: cost, Gauss-Newton matrix `J^T J` and
+/// `J^T r`; `None` if the point is not admissible.
+pub(crate) struct Point<E> {
+    pub cost: f64,
+    pub fisher: DMatrix<f64>,
+    pub gradient: DVector<f64>,
+    pub extra: E,
+}
+
+/// Levenberg–Marquardt damping of a cold start, relative to the unit diagonal of the scaled
+/// Gauss-Newton matrix.
+pub(crate) const INITIAL_DAMPING: f64 = 1e-3;
+
+/// Regularization of the scaled Gauss-Newton matrix (unit diagonal) when the full step's
+/// predicted decrease is computed.
+const GAUSS_NEWTON_REGULARIZATION: f64 = 1e-12;
+
+/// Result of a run.
+pub(crate) struct Outcome<E> {
+    pub theta: DVector<f64>,
+    pub point: Point<E>,
+    /// Damping at the end (a warm start for a following run).
+    pub damping: f64,
+    /// Steps tried (accepted or not).
+    pub iterations: usize,
+    pub stop: StopReason,
+}
+
+/// `max_i |g_i| / sqrt(F_ii cost)`: the largest cosine between the residual and a Jacobian
+/// column (0 for a zero residual).
+pub(crate) fn gradient_cosine(fisher: &DMatrix<f64>, gradient: &DVector<f64>, cost: f64) -> f64 {
+    if cost <= 0.0 {
+        return 0.0;
+    }
+    (0..gradient.len())
+        .filter(|&i| fisher[(i, i)] > 0.0)
+        .map(|i| gradient[i].abs() / (fisher[(i, i)] * cost).sqrt())
+        .fold(0.0, f64::max)
+}
+
+/// Minimizes from `theta` (which must be admissible, `start` is its evaluation) with
+/// initial damping `mu`.
+pub(crate) fn minimize<E>(
+    theta: DVector<f64>,
+    start: Point<E>,
+    settings: Settings,
+    mu: f64,
+    mut eval: impl FnMut(&DVector<f64>) -> Option<Point<E>>,
+) -> Outcome<E> {
+    let p = theta.len();
+    let mut theta = theta;
+    let mut point = start;
+    let mut scale = DVector::from_fn(p, |i, _| {
+        let d = point.fisher[(i, i)].max(0.0).sqrt();
+        if d > 0.0 { d } else { 1.0 }
+    });
+    let mut mu = mu;
+    let mut nu = 2.0;
+    let mut iterations = 0;
+    let stop = loop {
+        if gradient_cosine(&point.fisher, &point.gradient, point.cost)
+            <= settings.gradient_tolerance
+        {
+            break StopReason::Gradient;
+        }
+        if iterations >= settings.max_iterations {
+            break StopReason::MaxIterations;
+        }
+        iterations += 1;
+        let fs = DMatrix::from_fn(p, p, |i, j| point.fisher[(i, j)] / (scale[i] * scale[j]));
+        let gs = DVector::from_fn(p, |i, _| point.gradient[i] / scale[i]);
+        // Decrease a full Gauss-Newton step would bring: below the cost tolerance there is
+        // nothing left to gain (checked before paying for an evaluation).
+        let mut gn = fs.clone();
+        for i in 0..p {
+            gn[(i, i)] += GAUSS_NEWTON_REGULARIZATION;
+        }
+        if let Some(chol) = gn.cholesky()
+            && gs.dot(&chol.solve(&gs)) <= settings.cost_tolerance * point.cost
+        {
+            break StopReason::Cost;
+        }
+        let mut lhs = fs.clone();
+        for i in 0..p {
+            lhs[(i, i)] += mu;
+        }
+        let Some(chol) = lhs.cholesky() else {
+            mu *= nu;
+            nu *= 2.0;
+            if mu > 1e30 {
+                break StopReason::NoProgress;
+            }
+            continue;
+        };
+        let ds = -chol.solve(&gs);
+        let delta = DVector::from_fn(p, |i, _| ds[i] / scale[i]);
+        let predicted = -2.0 * gs.dot(&ds) - ds.dot(&(&fs * &ds));
+        let theta_norm = DVector::from_fn(p, |i, _| theta[i] * scale[i]).norm();
+        let small_step =
+            ds.norm() <= settings.step_tolerance * (theta_norm + settings.step_tolerance);
+        let candidate = &theta + &delta;
+        let trial = eval(&candidate).filter(|t| t.cost.is_finite());
+        let actual = trial.as_ref().map(|t| point.cost - t.cost);
+        match (trial, actual) {
+            (Some(trial), Some(actual)) if actual > 0.0 && predicted > 0.0 => {
+                let rho = actual / predicted;
+                let old_cost = point.cost;
+                theta = candidate;
+                point = trial;
+                mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+                nu = 2.0;
+                for i in 0..p {
+                    scale[i] = scale[i].max(point.fisher[(i, i)].max(0.0).sqrt());
+                }
+                let tol = settings.cost_tolerance * old_cost;
+                if actual <= tol && predicted <= tol {
+                    break StopReason::Cost;
+                }
+                if small_step {
+                    break StopReason::Step;
+                }
+            }
+            _ => {
+                if small_step {
+                    break StopReason::Step;
+                }
+                mu *= nu;
+                nu *= 2.0;
+                if mu > 1e30 {
+                    break StopReason::NoProgress;
+                }
+            }
+        }
+    };
+    Outcome {
+        theta,
+        point,
+        damping: mu,
+        iterations,
+        stop,
+    }
+}

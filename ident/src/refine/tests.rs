@@ -1,0 +1,631 @@
+//! Unit tests of the refinement internals: exact derivatives against central differences,
+//! and the Fisher information against a closed form and a brute-force time-domain one.
+
+use super::likelihood::{self, Noise, Want};
+use super::model::{Model, expm_frechet};
+use super::spectra::{self, Spectra};
+use super::uncertainty;
+use super::*;
+use crate::testutil::{normal, paper_frame};
+use nalgebra::{DMatrix, DVector};
+use rand::SeedableRng;
+use rand::rngs::ChaCha8Rng;
+
+const DT: f64 = 1.0 / 64.0;
+
+fn three_storeys() -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    let m = DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 0.9, 0.8]));
+    let (k1, k2, k3) = (1000.0, 900.0, 800.0);
+    let k = DMatrix::from_row_slice(3, 3, &[k1 + k2, -k2, 0.0, -k2, k2 + k3, -k3, 0.0, -k3, k3]);
+    // Rayleigh plus an extra dashpot on storey 1 (non-proportional).
+    let mut r = &m * 0.12 + &k * 1.5e-4;
+    r[(0, 0)] += 0.3;
+    r[(0, 1)] -= 0.3;
+    r[(1, 0)] -= 0.3;
+    r[(1, 1)] += 0.3;
+    (m, k, r)
+}
+
+/// Records of white-noise force at DOF 0 through the exact held model, plus noise on every
+/// channel: data for derivative checks (their origin does not matter, a nonzero residual
+/// does).
+fn random_records(
+    model: &Model,
+    rng: &mut ChaCha8Rng,
+    hits: usize,
+    len: usize,
+    noise: f64,
+) -> Vec<Record> {
+    (0..hits)
+        .map(|_| {
+            let u = DMatrix::from_fn(model.r, len, |_, _| normal(rng));
+            let mut y = spectra::noise_free_outputs(model, std::slice::from_ref(&u)).remove(0);
+            let rms = (y.norm_squared() / y.len() as f64).sqrt();
+            y.iter_mut().for_each(|v| *v += noise * rms * normal(rng));
+            let u = u.map(|v| v + noise * normal(rng));
+            Record::new(u, y)
+        })
+        .collect()
+}
+
+fn held_model(m: &DMatrix<f64>, k: &DMatrix<f64>, r: &DMatrix<f64>) -> Model {
+    held_model_with_inputs(m, k, r, &[0])
+}
+
+/// Held model with forces at `dofs`.
+fn held_model_with_inputs(
+    m: &DMatrix<f64>,
+    k: &DMatrix<f64>,
+    r: &DMatrix<f64>,
+    dofs: &[usize],
+) -> Model {
+    let mut b2 = DMatrix::zeros(m.nrows(), dofs.len());
+    for (l, &dof) in dofs.iter().enumerate() {
+        b2[(dof, l)] = 1.0;
+    }
+    Model::new(m, k, r, &b2, DT, Intersample::Zoh, None).unwrap()
+}
+
+#[test]
+fn frechet_derivative_of_the_exponential() {
+    let (m, k, r) = paper_frame();
+    let model = held_model(&m, &k, &r);
+    let x = &model.a * DT;
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let e = DMatrix::from_fn(4, 4, |_, _| normal(&mut rng));
+    let (ex, l) = expm_frechet(&x, &e);
+    assert!((&ex - x.exp()).norm() < 1e-14 * ex.norm());
+    let h = 1e-5;
+    let fd = ((&x + &e * h).exp() - (&x - &e * h).exp()) / (2.0 * h);
+    // Central difference: truncation ~h^2 |x|^2 |e| ~ 1e-10, round-off ~eps / h ~ 1e-11.
+    assert!(
+        (&l - &fd).norm() < 1e-8 * l.norm(),
+        "{}",
+        (&l - &fd).norm() / l.norm()
+    );
+}
+
+/// Step for a central difference of parameter `p`: relative to the parameter, or to the
+/// largest parameter of the same matrix for entries near zero.
+fn step(problem: &Problem, theta: &DVector<f64>, p: usize) -> f64 {
+    let kind = problem.params[p].matrix;
+    let typical = (0..theta.len())
+        .filter(|&q| problem.params[q].matrix == kind)
+        .map(|q| theta[q].abs())
+        .fold(0.0, f64::max);
+    1e-5 * theta[p].abs().max(1e-2 * typical)
+}
+
+/// The residual at `theta` with the transients fixed to `xi`.
+fn residual_at_fixed_xi(
+    problem: &Problem,
+    theta: &DVector<f64>,
+    noise: &Noise,
+    xi: &[DVector<f64>],
+) -> Vec<DVector<f64>> {
+    let ev = problem.evaluate(theta, noise, Want::Cost, false).unwrap();
+    ev.matrices
+        .iter()
+        .zip(xi)
+        .map(|(hm, fixed)| &hm.r0 - &hm.x * fixed)
+        .collect()
+}
+
+fn check_jacobian(
+    intersample: Intersample,
+    parametrization: Parametrization,
+    truth: (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>),
+    seed: u64,
+) {
+    check_jacobian_with_inputs(intersample, parametrization, truth, seed, &[0]);
+}
+
+fn check_jacobian_with_inputs(
+    intersample: Intersample,
+    parametrization: Parametrization,
+    truth: (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>),
+    seed: u64,
+    input_dofs: &[usize],
+) {
+    let (m, k, r) = truth;
+    let n = m.nrows();
+    let inputs = input_dofs.len();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let data_model = held_model_with_inputs(&m, &k, &r, input_dofs);
+    let records = random_records(&data_model, &mut rng, 3, 256, 0.05);
+    let refiner = Refiner::default()
+        .intersample(intersample)
+        .parametrization(parametrization)
+        .input_dofs(input_dofs.to_vec());
+    let problem = refiner.problem(&records, DT, n).unwrap();
+    let (theta_true, _) = param::project(&problem.params, &m, &k, &r);
+    // Away from the data's model so that the residual (which multiplies the weight
+    // derivative) is large.
+    let theta = theta_true.map(|v| v * (1.0 + 0.02 * normal(&mut rng)));
+    for noise in [
+        Noise {
+            outputs: vec![0.3; n],
+            inputs: vec![0.0; inputs],
+        },
+        Noise {
+            outputs: (0..n).map(|i| 0.2 + 0.1 * i as f64).collect(),
+            inputs: (0..inputs).map(|l| 0.05 + 0.02 * l as f64).collect(),
+        },
+    ] {
+        let ev = problem
+            .evaluate(
+                &theta,
+                &noise,
+                Want::Jacobian {
+                    weight_derivative: true,
+                },
+                false,
+            )
+            .unwrap();
+        let gradient = ev.gradient.clone().unwrap();
+        // Without the weight's derivative (the expected-Fisher Jacobian): must differ when
+        // the force is noisy, showing the check can see a missing term.
+        let expected = problem
+            .evaluate(
+                &theta,
+                &noise,
+                Want::Jacobian {
+                    weight_derivative: false,
+                },
+                false,
+            )
+            .unwrap();
+        let mut worst: f64 = 0.0;
+        let mut worst_expected: f64 = 0.0;
+        let mut worst_gradient: f64 = 0.0;
+        for p in 0..theta.len() {
+            let h = step(&problem, &theta, p);
+            let mut plus = theta.clone();
+            plus[p] += h;
+            let mut minus = theta.clone();
+            minus[p] -= h;
+            let rp = residual_at_fixed_xi(&problem, &plus, &noise, &ev.xi);
+            let rm = residual_at_fixed_xi(&problem, &minus, &noise, &ev.xi);
+            let (mut num, mut num_expected, mut den) = (0.0, 0.0, 0.0);
+            for (hit, hm) in ev.matrices.iter().enumerate() {
+                let analytic = hm.j.as_ref().unwrap().column(p).into_owned();
+                let fd = (&rp[hit] - &rm[hit]) / (2.0 * h);
+                num += (&analytic - &fd).norm_squared();
+                num_expected +=
+                    (expected.matrices[hit].j.as_ref().unwrap().column(p) - &fd).norm_squared();
+                den += analytic.norm_squared();
+            }
+            worst = worst.max((num / den).sqrt());
+            worst_expected = worst_expected.max((num_expected / den).sqrt());
+            // The projected cost's gradient is 2 J^T r exactly (envelope theorem).
+            let cp = problem
+                .evaluate(&plus, &noise, Want::Cost, false)
+                .unwrap()
+                .cost;
+            let cm = problem
+                .evaluate(&minus, &noise, Want::Cost, false)
+                .unwrap()
+                .cost;
+            let fd = (cp - cm) / (2.0 * h);
+            let scale = 2.0 * gradient[p].abs().max(1e-3 * gradient.amax());
+            worst_gradient = worst_gradient.max((fd - 2.0 * gradient[p]).abs() / scale);
+        }
+        println!(
+            "{intersample:?} {n} DOF, sigma_u = {}: Jacobian {worst:.1e}, gradient {worst_gradient:.1e}, without the weight derivative {worst_expected:.1e}",
+            noise.inputs[0]
+        );
+        // Central differences with 1e-5 relative steps: measured errors up to 6e-7, mostly
+        // round-off of the model (~1e-11 relative, the conditioning of z I - A_d near the
+        // resonances) over the step. A wrong or missing term is far larger (the missing
+        // weight derivative: 0.17 to 1.3 here).
+        assert!(worst < 1e-5, "Jacobian error {worst:e}");
+        assert!(worst_gradient < 1e-4, "gradient error {worst_gradient:e}");
+        if noise.inputs[0] > 0.0 {
+            assert!(worst_expected > 1e-3, "{worst_expected:e}");
+        }
+    }
+}
+
+#[test]
+fn jacobian_matches_central_differences_held_2dof() {
+    check_jacobian(Intersample::Zoh, Parametrization::Full, paper_frame(), 11);
+}
+
+#[test]
+fn jacobian_matches_central_differences_held_3dof() {
+    check_jacobian(Intersample::Zoh, Parametrization::Full, three_storeys(), 12);
+    check_jacobian(
+        Intersample::Zoh,
+        Parametrization::ShearFrame {
+            dashpots: vec![
+                Dashpot::between(Node::Ground, Node::Dof(1)),
+                Dashpot::between(Node::Dof(0), Node::Dof(2)),
+            ],
+        },
+        three_storeys(),
+        13,
+    );
+}
+
+/// Two forces (at both DOFs): the errors-in-variables weight is a rank-2 update.
+#[test]
+fn jacobian_matches_central_differences_two_inputs() {
+    for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
+        check_jacobian_with_inputs(
+            intersample,
+            Parametrization::Full,
+            paper_frame(),
+            17,
+            &[0, 1],
+        );
+    }
+}
+
+/// Two forces, noise-free held records: the refinement recovers the model.
+#[test]
+fn two_inputs_noise_free_round_trip() {
+    let (m, k, r) = three_storeys();
+    let dofs = [0, 2];
+    let model = held_model_with_inputs(&m, &k, &r, &dofs);
+    let mut rng = ChaCha8Rng::seed_from_u64(18);
+    let records = random_records(&model, &mut rng, 2, 512, 0.0);
+    let start = SecondOrder::new(&m * 1.01, &k * 0.99, &r * 2.0);
+    let refined = Refiner::default()
+        .intersample(Intersample::Zoh)
+        .input_dofs(dofs.to_vec())
+        .refine(&records, DT, &start)
+        .unwrap();
+    let err = [
+        linalg::relative_error(&refined.mass, &m),
+        linalg::relative_error(&refined.stiffness, &k),
+        linalg::relative_error(&refined.damping, &r),
+    ];
+    println!(
+        "two inputs: M {:.1e} K {:.1e} damping {:.1e}, {}",
+        err[0], err[1], err[2], refined.stop
+    );
+    // Exact model, noise-free data: round-off (measured 2e-15 to 1e-13).
+    assert!(err.iter().all(|&e| e < 1e-8), "{err:?}");
+}
+
+#[test]
+fn jacobian_matches_central_differences_bandlimited_2dof() {
+    check_jacobian(
+        Intersample::Bandlimited,
+        Parametrization::Full,
+        paper_frame(),
+        14,
+    );
+}
+
+#[test]
+fn jacobian_matches_central_differences_bandlimited_3dof() {
+    check_jacobian(
+        Intersample::Bandlimited,
+        Parametrization::Full,
+        three_storeys(),
+        15,
+    );
+    check_jacobian(
+        Intersample::Bandlimited,
+        Parametrization::shear_frame(),
+        three_storeys(),
+        16,
+    );
+}
+
+/// `sum_{t=0}^{N-1} t^k w^t` for k = 0, 1, 2 in closed form.
+fn power_sum(w: C64, len: usize, k: usize) -> C64 {
+    let one = C64::new(1.0, 0.0);
+    let nf = len as f64;
+    let wn = w.powu(len as u32);
+    match k {
+        0 => (one - wn) / (one - w),
+        1 => w * (one - w.powu(len as u32 - 1) * nf + wn * (nf - 1.0)) / (one - w).powu(2),
+        2 => {
+            (w * (one + w)
+                - wn * (w * w * (nf - 1.0).powi(2) - w * (2.0 * nf * nf - 2.0 * nf - 1.0)
+                    + nf * nf))
+                / (one - w).powu(3)
+        }
+        _ => unreachable!(),
+    }
+}
+
+/// Fisher information of a damped sinusoid `y_t = Re(a x^t)`, `x = exp((-alpha + j omega)
+/// dt)`, `a = P - j Q`, observed for `t = 0..N-1` in white noise `sigma`, for
+/// `(omega, alpha)` with the amplitude and phase `(P, Q)` unknown (eliminated), in closed
+/// form: every entry is `1/2 Re(a_i a_j S(x^2) + a_i conj(a_j) S(|x|^2)) / sigma^2` with
+/// the closed-form power sums `S`.
+fn damped_sinusoid_fisher(
+    p: f64,
+    q: f64,
+    omega: f64,
+    alpha: f64,
+    dt: f64,
+    len: usize,
+    sigma: f64,
+) -> DMatrix<f64> {
+    let x = C64::new(-alpha * dt, omega * dt).exp();
+    let a = C64::new(p, -q);
+    let j = C64::new(0.0, 1.0);
+    // (coefficient, power of t): d/domega, d/dalpha, d/dP, d/dQ.
+    let terms = [
+        (j * dt * a, 1),
+        (-a * dt, 1),
+        (C64::new(1.0, 0.0), 0),
+        (-j, 0),
+    ];
+    let full = DMatrix::from_fn(4, 4, |i, k| {
+        let (ai, pi) = terms[i];
+        let (ak, pk) = terms[k];
+        let s2 = power_sum(x * x, len, pi + pk);
+        let s0 = power_sum(C64::new(x.norm_sqr(), 0.0), len, pi + pk);
+        0.5 * (ai * ak * s2 + ai * ak.conj() * s0).re / (sigma * sigma)
+    });
+    let a11 = full.view((0, 0), (2, 2));
+    let a12 = full.view((0, 2), (2, 2));
+    let a22 = full.view((2, 2), (2, 2)).into_owned();
+    a11 - a12 * a22.try_inverse().unwrap() * a12.transpose()
+}
+
+/// The Fisher information of the refinement's likelihood (DFT, bin weights, transient
+/// elimination, Frechet derivatives of the transient) for a single-DOF free decay equals
+/// the closed-form bound of a damped sinusoid with unknown amplitude and phase.
+#[test]
+fn fisher_of_a_free_decay_matches_the_closed_form() {
+    let (mass, stiffness, damping) = (0.5, 200.0, 0.4);
+    let len = 1024;
+    let sigma = 0.01;
+    let m = DMatrix::from_element(1, 1, mass);
+    let k = DMatrix::from_element(1, 1, stiffness);
+    let r = DMatrix::from_element(1, 1, damping);
+    let model = held_model(&m, &k, &r);
+    // Free decay from a displacement and a velocity.
+    let x0 = DVector::from_vec(vec![0.01, -0.05]);
+    let ad = model.ad.map(|z| z.re);
+    let c = model.c.map(|z| z.re);
+    let mut x = x0.clone();
+    let mut y = DMatrix::zeros(1, len);
+    for t in 0..len {
+        y[(0, t)] = (&c * &x)[0];
+        x = &ad * x;
+    }
+    let records = vec![Record::new(DMatrix::zeros(1, len), y)];
+    let params = Parametrization::shear_frame().parameters(1).unwrap();
+    let spectra = Spectra::new(&records, DT, Intersample::Zoh, 1.0);
+    let problem = Problem {
+        observations: likelihood::observations(&spectra, 1),
+        unknowns: 3 + 2,
+        params,
+        b2: DMatrix::from_element(1, 1, 1.0),
+        spectra,
+        dt: DT,
+        intersample: Intersample::Zoh,
+        n: 1,
+        r: 1,
+    };
+    let theta = DVector::from_vec(vec![mass, stiffness, damping]);
+    let noise = Noise {
+        outputs: vec![sigma],
+        inputs: vec![0.0],
+    };
+    let ev = problem
+        .evaluate(
+            &theta,
+            &noise,
+            Want::Jacobian {
+                weight_derivative: false,
+            },
+            false,
+        )
+        .unwrap();
+    // Noise-free data: the transient fits to round-off.
+    assert!(ev.cost < 1e-20, "cost {}", ev.cost);
+    let fisher = ev.fisher.unwrap();
+    // A free decay says nothing about the scale of (m, k, c): only k and c with m known.
+    let kc = fisher.view((1, 1), (2, 2)).into_owned();
+
+    let alpha = damping / (2.0 * mass);
+    let omega = (stiffness / mass - alpha * alpha).sqrt();
+    // y(0) = P, y'(0) = -alpha P + omega Q.
+    let p = (&c * &x0)[0];
+    let q = ((&c * &model.a * &x0)[0] + alpha * p) / omega;
+    let closed = damped_sinusoid_fisher(p, q, omega, alpha, DT, len, sigma);
+    // (omega, alpha) as functions of (k, c) at fixed m.
+    let jac = DMatrix::from_row_slice(
+        2,
+        2,
+        &[
+            1.0 / (2.0 * mass * omega),
+            -alpha / (2.0 * mass * omega),
+            0.0,
+            1.0 / (2.0 * mass),
+        ],
+    );
+    let expected = jac.transpose() * closed * jac;
+    let err = (&kc - &expected).norm() / expected.norm();
+    println!("free decay Fisher: relative difference {err:.2e}");
+    // Both sides are exact; what remains is round-off of FFTs, exponentials and a 2x2
+    // Schur complement (measured ~1e-13).
+    assert!(err < 1e-10, "{kc} vs {expected}");
+    // The power sums themselves against direct summation.
+    let w = C64::new(0.9, 0.3);
+    for kk in 0..3 {
+        let direct: C64 = (0..50)
+            .map(|t| w.powu(t as u32) * (t as f64).powi(kk as i32))
+            .sum();
+        assert!((power_sum(w, 50, kk) - direct).norm() < 1e-12 * direct.norm());
+    }
+}
+
+/// The frequency-domain errors-in-variables bound with free transients equals the
+/// time-domain Fisher information of held records with the initial state and the true
+/// force samples as nuisance parameters (derivatives by central differences of an exact
+/// simulation). Short records keep the time-domain elimination small.
+#[test]
+fn bound_matches_brute_force_time_domain_fisher() {
+    let (m, k, r) = paper_frame();
+    let n = 2;
+    let len = 128;
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    let refiner = Refiner::default().intersample(Intersample::Zoh);
+    let inputs: Vec<DMatrix<f64>> = (0..2)
+        .map(|_| DMatrix::from_fn(1, len, |_, _| normal(&mut rng)))
+        .collect();
+    let levels = NoiseLevels {
+        outputs: vec![0.05, 0.08],
+        inputs: vec![0.02],
+    };
+    let truth = SecondOrder::new(m.clone(), k.clone(), r.clone());
+    let bound = refiner.cramer_rao(&truth, DT, &inputs, &levels).unwrap();
+
+    let params = Parametrization::Full.parameters(n).unwrap();
+    let (theta, _) = param::project(&params, &m, &k, &r);
+    let simulate = |theta: &DVector<f64>, u: &DMatrix<f64>, x0: &DVector<f64>| {
+        let (mm, kk, rr) = param::matrices(&params, theta, n);
+        let model = held_model(&mm, &kk, &rr);
+        let (ad, bd) = (model.ad.map(|z| z.re), model.bd.map(|z| z.re));
+        let (c, d) = (model.c.map(|z| z.re), model.d.map(|z| z.re));
+        let mut x = x0.clone();
+        let mut y = DVector::zeros(n * len);
+        for t in 0..len {
+            let ut = u.column(t);
+            let yt = &c * &x + &d * ut;
+            for i in 0..n {
+                y[t * n + i] = yt[i];
+            }
+            x = &ad * x + &bd * ut;
+        }
+        y
+    };
+    let np = params.len();
+    let mut fisher = DMatrix::zeros(np, np);
+    let zero = DVector::zeros(2 * n);
+    for u in &inputs {
+        // Rows: outputs (n len) then the force (len), whitened.
+        let rows = (n + 1) * len;
+        let white = |row: usize| {
+            if row < n * len {
+                1.0 / levels.outputs[row % n]
+            } else {
+                1.0 / levels.inputs[0]
+            }
+        };
+        let mut jt = DMatrix::zeros(rows, np);
+        for p in 0..np {
+            let h = 1e-6 * theta[p].abs().max(1e-3);
+            let mut plus = theta.clone();
+            plus[p] += h;
+            let mut minus = theta.clone();
+            minus[p] -= h;
+            let d = (simulate(&plus, u, &zero) - simulate(&minus, u, &zero)) / (2.0 * h);
+            for row in 0..n * len {
+                jt[(row, p)] = d[row] * white(row);
+            }
+        }
+        // Nuisance: every force sample and the initial state (the response is linear in
+        // both).
+        let mut z = DMatrix::zeros(rows, len + 2 * n);
+        for t in 0..len {
+            let mut e = DMatrix::zeros(1, len);
+            e[(0, t)] = 1.0;
+            let d = simulate(&theta, &e, &zero);
+            for row in 0..n * len {
+                z[(row, t)] = d[row] * white(row);
+            }
+            z[(n * len + t, t)] = white(n * len + t);
+        }
+        for q in 0..2 * n {
+            let mut x0 = DVector::zeros(2 * n);
+            x0[q] = 1.0;
+            let d = simulate(&theta, &DMatrix::zeros(1, len), &x0);
+            for row in 0..n * len {
+                z[(row, len + q)] = d[row] * white(row);
+            }
+        }
+        let zinv = likelihood::spd_inverse(&z.tr_mul(&z));
+        let jz = jt.tr_mul(&z);
+        fisher += jt.tr_mul(&jt) - &jz * zinv * jz.transpose();
+    }
+    let err = (&bound.fisher - &fisher).norm() / fisher.norm();
+    let worst_diag = (0..np)
+        .map(|p| ((bound.fisher[(p, p)] - fisher[(p, p)]) / fisher[(p, p)]).abs())
+        .fold(0.0, f64::max);
+    println!("time-domain Fisher: relative difference {err:.2e}, worst diagonal {worst_diag:.2e}");
+    // Central differences (step 1e-6 relative, truncation ~1e-12, round-off ~1e-10) and
+    // an elimination of 132 nuisance parameters (round-off ~1e-10).
+    assert!(err < 1e-6 && worst_diag < 1e-6, "{err:e} {worst_diag:e}");
+}
+
+/// The delta method's gradients (frequency, damping ratio, normalized complex shape) against
+/// central differences: with the covariance `e_p e_p^T` each reported standard deviation is
+/// the magnitude of the derivative with respect to parameter `p`.
+#[test]
+fn modal_gradients_match_central_differences() {
+    for (m, k, r) in [paper_frame(), three_storeys()] {
+        let n = m.nrows();
+        let params = Parametrization::Full.parameters(n).unwrap();
+        let (theta, _) = param::project(&params, &m, &k, &r);
+        let mut b2 = DMatrix::zeros(n, 1);
+        b2[(0, 0)] = 1.0;
+        let build = |theta: &DVector<f64>, derivatives: bool| {
+            let (mm, kk, rr) = param::matrices(&params, theta, n);
+            Model::new(
+                &mm,
+                &kk,
+                &rr,
+                &b2,
+                DT,
+                Intersample::Zoh,
+                derivatives.then_some(params.as_slice()),
+            )
+            .unwrap()
+        };
+        let model = build(&theta, true);
+        let zero = DMatrix::zeros(params.len(), params.len());
+        let values = uncertainty::modal_estimates(&model, &zero).unwrap();
+        let mut worst: f64 = 0.0;
+        for p in 0..params.len() {
+            let mut cov = zero.clone();
+            cov[(p, p)] = 1.0;
+            let analytic = uncertainty::modal_estimates(&model, &cov).unwrap();
+            let h = 1e-6 * theta[p].abs().max(1e-3);
+            let mut plus = theta.clone();
+            plus[p] += h;
+            let mut minus = theta.clone();
+            minus[p] -= h;
+            let vp = uncertainty::modal_estimates(&build(&plus, true), &zero).unwrap();
+            let vm = uncertainty::modal_estimates(&build(&minus, true), &zero).unwrap();
+            for j in 0..values.len() {
+                let pairs = [
+                    (
+                        (vp[j].frequency_hz - vm[j].frequency_hz) / (2.0 * h),
+                        analytic[j].frequency_std_hz,
+                        values[j].frequency_hz,
+                    ),
+                    (
+                        (vp[j].damping_ratio - vm[j].damping_ratio) / (2.0 * h),
+                        analytic[j].damping_ratio_std,
+                        values[j].damping_ratio,
+                    ),
+                ];
+                for (fd, std, scale) in pairs {
+                    // Relative to the quantity per unit relative change of the parameter.
+                    let unit = scale / theta[p].abs().max(1e-3);
+                    worst = worst.max((fd.abs() - std).abs() / unit);
+                }
+                for i in 0..n {
+                    let d = (vp[j].shape[i] - vm[j].shape[i]) / (2.0 * h);
+                    let unit = 1.0 / theta[p].abs().max(1e-3);
+                    worst = worst.max((d.re.abs() - analytic[j].shape_std_re[i]).abs() / unit);
+                    worst = worst.max((d.im.abs() - analytic[j].shape_std_im[i]).abs() / unit);
+                }
+            }
+        }
+        println!("{n} DOF modal gradients: worst error {worst:.1e}");
+        // Central differences, step 1e-6 relative to the parameter (truncation ~(h / xi)^2
+        // near a lightly damped pole): measured 6e-8 of the derivative's natural unit.
+        assert!(worst < 1e-6, "{worst:e}");
+    }
+}
