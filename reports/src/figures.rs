@@ -728,8 +728,15 @@ pub fn quantity(id: String, q: &Quantity, view: &PanelView<'_>) -> Fig {
     fig
 }
 
-/// The MKR and Rayleigh damping errors side by side in one chart.
-pub fn damping_pair(id: String, mkr: &Quantity, rayleigh: &Quantity, view: &PanelView<'_>) -> Fig {
+/// The MKR and Rayleigh damping errors side by side in one chart, with the
+/// refined (maximum-likelihood) estimate's when given.
+pub fn damping_pair(
+    id: String,
+    mkr: &Quantity,
+    rayleigh: &Quantity,
+    refined: Option<&Quantity>,
+    view: &PanelView<'_>,
+) -> Fig {
     let PanelView {
         panel,
         axis_name,
@@ -753,10 +760,23 @@ pub fn damping_pair(id: String, mkr: &Quantity, rayleigh: &Quantity, view: &Pane
         BLUE,
         Shape::Circle,
     ));
+    if let Some(r) = refined {
+        layers.extend(quantity_layers(
+            r,
+            &panel.noise_levels,
+            "refined",
+            "refined (ML)",
+            GREEN,
+            Shape::Triangle,
+        ));
+    }
     let mut caption = String::from(
         "Damping matrix from MKR (eq. 30) against the Rayleigh fit R = αM + βK (eq. 16–19), same noise and trials. The paper found the MKR damping two orders of magnitude above the Rayleigh one.",
     );
-    for q in [mkr, rayleigh] {
+    if refined.is_some() {
+        caption.push_str(" Refined: maximum-likelihood output-error fit of M, K and the damping matrix over all hits.");
+    }
+    for q in [Some(mkr), Some(rayleigh), refined].into_iter().flatten() {
         if let Some(n) = missing_levels_note(q, &panel.noise_levels) {
             caption.push_str(&format!(" {}: {}", escape(&q.label), n));
         }
@@ -766,7 +786,9 @@ pub fn damping_pair(id: String, mkr: &Quantity, rayleigh: &Quantity, view: &Pane
             id,
             kind: "damping-comparison".into(),
             title: format!(
-                "Damping matrix: MKR and Rayleigh{}",
+                "Damping matrix: MKR{} Rayleigh{}{}",
+                if refined.is_some() { "," } else { " and" },
+                if refined.is_some() { " and refined" } else { "" },
                 panel_suffix(axis_name, panel)
             ),
             size,
@@ -777,9 +799,10 @@ pub fn damping_pair(id: String, mkr: &Quantity, rayleigh: &Quantity, view: &Pane
         caption,
     );
     fig.attrs = format!(
-        " data-quantity=\"{} {}\"",
+        " data-quantity=\"{} {}{}\"",
         escape(&mkr.key),
-        escape(&rayleigh.key)
+        escape(&rayleigh.key),
+        refined.map(|r| format!(" {}", escape(&r.key))).unwrap_or_default()
     );
     fig
 }

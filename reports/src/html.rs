@@ -430,6 +430,7 @@ fn find<'a>(p: &'a Panel, key: &str) -> Option<&'a Quantity> {
 
 const MKR: &str = "damping_mkr_err";
 const RAYLEIGH: &str = "damping_rayleigh_err";
+const REFINED: &str = "damping_refined_err";
 
 fn accuracy(out: &mut String, sid: &str, acc: &Accuracy) -> Result<(), ReportError> {
     w!(
@@ -518,7 +519,7 @@ fn accuracy(out: &mut String, sid: &str, acc: &Accuracy) -> Result<(), ReportErr
         let has_pair = combine && keys.iter().any(|k| k == MKR || k == RAYLEIGH);
         let keys: Vec<&String> = keys
             .iter()
-            .filter(|k| !(combine && (*k == MKR || *k == RAYLEIGH)))
+            .filter(|k| !(combine && (*k == MKR || *k == RAYLEIGH || *k == REFINED)))
             .collect();
         let title = if group.trim().is_empty() {
             "other"
@@ -607,7 +608,7 @@ fn damping_pairs(
     let qs: Vec<&Quantity> = acc
         .panels
         .iter()
-        .flat_map(|p| [find(p, MKR), find(p, RAYLEIGH)])
+        .flat_map(|p| [find(p, MKR), find(p, RAYLEIGH), find(p, REFINED)])
         .flatten()
         .collect();
     let unit = qs.first().map(|q| q.unit.trim()).unwrap_or("");
@@ -635,6 +636,7 @@ fn damping_pairs(
                     id,
                     m,
                     r,
+                    find(p, REFINED),
                     &PanelView {
                         panel: p,
                         axis_name: acc.axis_name.as_deref(),
@@ -802,7 +804,7 @@ fn efficiency(out: &mut String, acc: &Accuracy) {
         }
     }
     levels.sort_by(f64::total_cmp);
-    out.push_str("<div class=\"efficiency\">\n<h4>Efficiency</h4>\n<p class=\"lede\">Cramér–Rao bound variance divided by the estimator's variance; 1 means the estimator reaches the bound.</p>\n");
+    out.push_str("<div class=\"efficiency\">\n<h4>Efficiency</h4>\n<p class=\"lede\">Cramér–Rao bound (standard deviation) divided by the estimator's RMS error over the trials; 1 means the estimator reaches the bound, a small value that it is far from it (or biased).</p>\n");
     out.push_str("<div class=\"table-wrap\"><table class=\"efficiency\">\n<thead><tr><th scope=\"col\">Quantity</th><th scope=\"col\">Estimator</th>");
     for &l in &levels {
         w!(

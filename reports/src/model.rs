@@ -247,8 +247,9 @@ pub enum Scale {
     Log,
 }
 
-/// Statistical efficiency of an estimator at one noise level (bound variance
-/// over estimator variance, 1 = efficient).
+/// Statistical efficiency of an estimator at one noise level: the
+/// Cramér–Rao bound (standard deviation) over the estimator's RMS error,
+/// 1 = efficient.
 #[derive(Serialize, Deserialize, Debug, Clone)]
 pub struct EfficiencyRow {
     #[serde(deserialize_with = "nullable::f64")]
