@@ -365,7 +365,18 @@ fn accuracy(summary: &Summary) -> rm::Accuracy {
                         median: series(name, |s| s.median),
                         p5: series(name, |s| s.p5),
                         p95: series(name, |s| s.p95),
-                        bound: None,
+                        bound: {
+                            let b: Vec<f64> = levels
+                                .iter()
+                                .map(|l| {
+                                    l.bound
+                                        .as_ref()
+                                        .and_then(|b| b.for_score(name))
+                                        .unwrap_or(f64::NAN)
+                                })
+                                .collect();
+                            b.iter().any(|x| x.is_finite()).then_some(b)
+                        },
                         scale: None,
                     })
                 })
@@ -394,6 +405,54 @@ fn accuracy(summary: &Summary) -> rm::Accuracy {
     rm::Accuracy {
         axis_name: plan.axis.as_ref().map(|a| a.setting.name().to_string()),
         panels,
-        efficiency: Vec::new(),
+        efficiency: efficiency_rows(summary),
     }
+}
+
+/// The estimator and quantity a score column measures, for the efficiency
+/// table.
+fn estimator_of(name: &str) -> Option<(&'static str, String)> {
+    let modal = |prefix: &str, what: &str| -> Option<(&'static str, String)> {
+        let rest = name.strip_prefix(prefix)?;
+        if let Some(j) = rest.strip_suffix("_refined_err") {
+            return Some(("refined (ML)", format!("{what} {j}")));
+        }
+        rest.strip_suffix("_err")
+            .map(|j| ("ERA/DC", format!("{what} {j}")))
+    };
+    modal("f", "natural frequency")
+        .or_else(|| modal("xi", "damping ratio"))
+        .or(match name {
+            "mass_err" => Some(("MKR", "mass matrix".into())),
+            "stiffness_err" => Some(("MKR", "stiffness matrix".into())),
+            "damping_mkr_err" => Some(("MKR", "damping matrix".into())),
+            "damping_rayleigh_err" => Some(("Rayleigh", "damping matrix".into())),
+            "mass_refined_err" => Some(("refined (ML)", "mass matrix".into())),
+            "stiffness_refined_err" => Some(("refined (ML)", "stiffness matrix".into())),
+            "damping_refined_err" => Some(("refined (ML)", "damping matrix".into())),
+            _ => None,
+        })
+}
+
+/// Efficiency rows (bound / RMS error) of the first panel, every level with
+/// a bound.
+fn efficiency_rows(summary: &Summary) -> Vec<rm::EfficiencyRow> {
+    let first_axis = summary.levels.first().map(|l| l.axis_value.clone());
+    summary
+        .levels
+        .iter()
+        .filter(|l| Some(l.axis_value.clone()) == first_axis)
+        .flat_map(|l| {
+            summary.score_names.iter().filter_map(move |name| {
+                let eff = *l.efficiency.get(name)?;
+                let (estimator, quantity) = estimator_of(name)?;
+                Some(rm::EfficiencyRow {
+                    noise_level: l.noise,
+                    estimator: estimator.into(),
+                    quantity,
+                    efficiency: eff,
+                })
+            })
+        })
+        .collect()
 }

@@ -12,13 +12,10 @@ use rustfft::FftPlanner;
 use serde::{Deserialize, Serialize};
 use sim::{Campaign, Model, derive_seed};
 
-use crate::experiment::{TrueModel, campaign_records, noise_at};
+use crate::experiment::{TrueModel, campaign_records, initial_model, noise_at};
 use crate::quality::{QualitySettings, assess_hit};
 use crate::scenario::Scenario;
 use crate::uncertainty::{MatrixSpread, Uncertainty, jackknife};
-
-/// Stream tag for the representative campaign's seed.
-const REPRESENTATIVE_TAG: u64 = 0x5245_5052;
 
 /// The representative campaign's data (`representative.json`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -37,7 +34,8 @@ pub fn representative(
     truth: &TrueModel,
     sweep_seed: u64,
 ) -> Result<RepresentativeFile> {
-    let seed = derive_seed(sweep_seed, REPRESENTATIVE_TAG);
+    // The campaign whose pulses the sweep's Cramér–Rao bound is computed for.
+    let seed = derive_seed(sweep_seed, crate::sweep::BOUND_TAG);
     let simulator = scenario
         .simulator(truth.model.clone())
         .map_err(|e| anyhow!("{e}"))?;
@@ -129,6 +127,18 @@ pub fn representative(
     // Error bars from the hits themselves (leave-one-out); a campaign too
     // small or too noisy for them still gets its tables.
     let spread = jackknife(&identifier, &records, campaign.dt_s, &id, &labels).ok();
+    let refined = scenario.identification.refine.then(|| {
+        scenario
+            .refiner()
+            .refine(&records, campaign.dt_s, &initial_model(&id))
+    });
+    let mut warnings: Vec<String> = id.warnings.iter().map(ToString::to_string).collect();
+    let mut tables = tables(&id, truth, spread.as_ref());
+    match &refined {
+        Some(Ok(r)) => tables.extend(refined_tables(r, truth)),
+        Some(Err(e)) => warnings.push(format!("refinement failed: {e}")),
+        None => {}
+    }
     Ok(RepresentativeFile {
         seed,
         representative: rm::Representative {
@@ -142,8 +152,8 @@ pub fn representative(
             modes,
             stabilization,
             frf,
-            tables: tables(&id, truth, spread.as_ref()),
-            warnings: id.warnings.iter().map(ToString::to_string).collect(),
+            tables,
+            warnings,
             hit_quality,
         },
     })
@@ -315,6 +325,79 @@ fn tables(
                 &truth.model.damping,
                 spread.map(|s| &s.damping_rayleigh),
             ),
+        ),
+    ]
+}
+
+/// Tables of the maximum-likelihood refinement, with the standard errors it
+/// reports (from the Fisher information at its optimum).
+fn refined_tables(r: &ident::refine::Refinement, truth: &TrueModel) -> Vec<rm::ComparisonTable> {
+    let n = truth.dofs();
+    let u = &r.uncertainty;
+    let modes = |label: &str,
+                 scale: f64,
+                 truth: &[f64],
+                 pick: fn(&ident::refine::ModalEstimate) -> (f64, f64)| {
+        (0..n.min(u.modes.len()))
+            .map(|j| {
+                let (value, std) = pick(&u.modes[j]);
+                rm::ComparisonRow {
+                    label: format!("{label}{}", j + 1),
+                    truth: scale * truth[j],
+                    identified: scale * value,
+                    std: Some(scale * std),
+                }
+            })
+            .collect()
+    };
+    let matrix = |prefix: &str, est: &DMatrix<f64>, std: &DMatrix<f64>, truth: &DMatrix<f64>| {
+        let mut rows = Vec::new();
+        for i in 0..n {
+            for j in i..n {
+                rows.push(rm::ComparisonRow {
+                    label: format!("{prefix}{}{}", i + 1, j + 1),
+                    truth: truth[(i, j)],
+                    identified: est[(i, j)],
+                    std: Some(std[(i, j)]),
+                });
+            }
+        }
+        rows
+    };
+    let table = |title: &str, unit: &str, rows| rm::ComparisonTable {
+        title: title.into(),
+        unit: unit.into(),
+        rows,
+    };
+    vec![
+        table(
+            "Natural frequencies, refined (ML)",
+            "Hz",
+            modes("f", 1.0, &truth.modal.frequencies_hz, |m| {
+                (m.frequency_hz, m.frequency_std_hz)
+            }),
+        ),
+        table(
+            "Damping ratios, refined (ML)",
+            "%",
+            modes("xi", 100.0, &truth.modal.damping_ratios, |m| {
+                (m.damping_ratio, m.damping_ratio_std)
+            }),
+        ),
+        table(
+            "Mass matrix M, refined (ML)",
+            "kg",
+            matrix("M", &r.mass, &u.mass_std, &truth.model.mass),
+        ),
+        table(
+            "Stiffness matrix K, refined (ML)",
+            "N/m",
+            matrix("K", &r.stiffness, &u.stiffness_std, &truth.model.stiffness),
+        ),
+        table(
+            "Damping matrix, refined (ML)",
+            "N s/m",
+            matrix("R", &r.damping, &u.damping_std, &truth.model.damping),
         ),
     ]
 }

@@ -45,6 +45,25 @@ pub struct IdentificationSettings {
     /// OKID observer order; default automatic.
     #[serde(default)]
     pub observer_order: Option<usize>,
+    /// Refine M, K and the damping matrix by maximum likelihood after MKR.
+    #[serde(default)]
+    pub refine: bool,
+    /// Physical parameters of the refinement and of the Cramér–Rao bound.
+    #[serde(default)]
+    pub parametrization: ParametrizationSetting,
+}
+
+/// Physical parametrization of the refinement, as written in scenario files.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ParametrizationSetting {
+    /// Symmetric M, K and damping (every upper-triangle entry).
+    #[default]
+    Full,
+    /// One mass per floor, one spring and one dashpot per storey, plus a
+    /// dashpot from every floor above the first to the ground (so that
+    /// Rayleigh damping is representable).
+    ShearFrame,
 }
 
 /// Intersample assumption as written in scenario files.
@@ -305,6 +324,36 @@ impl Scenario {
         id
     }
 
+    /// The maximum-likelihood refiner (also used for the Cramér–Rao bound):
+    /// the scenario's parametrization, the hit floor as input, noise levels
+    /// estimated from the residuals.
+    pub fn refiner(&self) -> ident::refine::Refiner {
+        use ident::refine::{Dashpot, Node, Parametrization};
+        let n = self.model().map(|m| m.dofs()).unwrap_or(1);
+        let parametrization = match self.identification.parametrization {
+            ParametrizationSetting::Full => Parametrization::Full,
+            ParametrizationSetting::ShearFrame => Parametrization::ShearFrame {
+                dashpots: (1..n)
+                    .map(|i| Dashpot::between(Node::Ground, Node::Dof(i)))
+                    .collect(),
+            },
+        };
+        ident::refine::Refiner::default()
+            .parametrization(parametrization)
+            .intersample(self.intersample())
+            .input_dofs(vec![self.campaign.hammer.floor - 1])
+    }
+
+    /// The intersample behaviour of the records themselves (held records are
+    /// ZOH, analyzer records band-limited), whatever the identification
+    /// assumes: what the Cramér–Rao bound is computed for.
+    pub fn acquisition_intersample(&self) -> ident::Intersample {
+        match self.campaign.acquisition {
+            sim::Acquisition::Held => ident::Intersample::Zoh,
+            sim::Acquisition::Analyzer(_) => ident::Intersample::Bandlimited,
+        }
+    }
+
     /// Checks the `[identification]` and `[sweep]` tables.
     pub fn check_study_settings(&self) -> Result<(), SimError> {
         let bad = |field: &str, problem: String| SimError::Invalid {
@@ -321,6 +370,9 @@ impl Scenario {
             ));
         }
         self.identifier()
+            .check()
+            .map_err(|e| bad("identification", e.to_string()))?;
+        self.refiner()
             .check()
             .map_err(|e| bad("identification", e.to_string()))?;
         let sw = &self.sweep;

@@ -112,10 +112,11 @@ fn report_of_a_sweep_has_every_section_and_is_drawn_from_the_data() {
             &format!("{id} svg[data-chart=force] g.series[data-role=line]"),
         );
         assert_eq!(force[0].value().attr("data-points"), Some("2048"));
-        // Tables compare truth and identified M, K and both damping
-        // matrices, with error bars from the hits (leave-one-out).
+        // Tables compare truth and identified f, xi, M, K and both damping
+        // matrices, with error bars from the hits (leave-one-out), then the
+        // refined f, xi, M, K and damping with their standard errors.
         let tables = select(&doc, &format!("{id} table.comparison"));
-        assert_eq!(tables.len(), 6);
+        assert_eq!(tables.len(), 6 + 5);
         let stds = select(&doc, &format!("{id} table.comparison td[data-std]"));
         assert!(
             !stds.is_empty()
@@ -126,6 +127,29 @@ fn report_of_a_sweep_has_every_section_and_is_drawn_from_the_data() {
         // One quality row per hit of the representative campaign.
         let hits = select(&doc, &format!("{id} table.hit-quality tbody tr"));
         assert_eq!(hits.len(), 10);
+    }
+    // The Cramér–Rao bound is drawn on the accuracy charts (at the noise
+    // levels above zero), and the efficiency table lists the estimators.
+    let bounds = select(
+        &doc,
+        "#study-1 svg[data-chart=quantity] g.series[data-series=bound]",
+    );
+    assert!(!bounds.is_empty(), "bound lines drawn");
+    for b in &bounds {
+        assert_eq!(
+            b.value().attr("data-points"),
+            Some("3"),
+            "bound at the 3 non-zero noise levels"
+        );
+    }
+    let eff = select(&doc, "#study-1 table.efficiency");
+    assert_eq!(eff.len(), 1);
+    let text = eff[0].text().collect::<String>();
+    for estimator in ["MKR", "Rayleigh", "refined (ML)", "ERA/DC"] {
+        assert!(
+            text.contains(estimator),
+            "efficiency table lacks {estimator}"
+        );
     }
     for svg in select(&doc, "svg.chart") {
         assert!(

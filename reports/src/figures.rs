@@ -788,7 +788,11 @@ pub fn damping_pair(
             title: format!(
                 "Damping matrix: MKR{} Rayleigh{}{}",
                 if refined.is_some() { "," } else { " and" },
-                if refined.is_some() { " and refined" } else { "" },
+                if refined.is_some() {
+                    " and refined"
+                } else {
+                    ""
+                },
                 panel_suffix(axis_name, panel)
             ),
             size,
@@ -802,7 +806,9 @@ pub fn damping_pair(
         " data-quantity=\"{} {}{}\"",
         escape(&mkr.key),
         escape(&rayleigh.key),
-        refined.map(|r| format!(" {}", escape(&r.key))).unwrap_or_default()
+        refined
+            .map(|r| format!(" {}", escape(&r.key)))
+            .unwrap_or_default()
     );
     fig
 }

@@ -55,7 +55,7 @@ pub fn run_sweep(
 ) -> Result<Option<Summary>> {
     let truth = TrueModel::new(loaded.model.clone())
         .map_err(|e| anyhow!("{}: {e}", loaded.path.display()))?;
-    let names = score_names(truth.dofs());
+    let names = score_names(truth.dofs(), plan.scenario.identification.refine);
     let rows = sweep::run(plan, &truth, shard, threads, true)?;
     let manifest = Manifest {
         frameid_version: env!("CARGO_PKG_VERSION").into(),
@@ -63,12 +63,14 @@ pub fn run_sweep(
         plan: plan.clone(),
         shard,
     };
-    sweep::write_dir(out, &manifest, &names, &rows)?;
     if shard.is_some() {
+        sweep::write_dir(out, &manifest, &names, &rows, None)?;
         return Ok(None);
     }
+    let summary = sweep::summarize(plan, &truth, &names, &rows);
+    sweep::write_dir(out, &manifest, &names, &rows, Some(&summary))?;
     write_representative(&plan.scenario, &truth, plan.seed, out)?;
-    Ok(Some(sweep::summarize(plan, &names, &rows)))
+    Ok(Some(summary))
 }
 
 /// Writes `representative.json` (the report's example campaign). If its

@@ -22,7 +22,9 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sim::{Simulator, derive_seed};
 
-use crate::experiment::{TrueModel, noise_at, run_trial, score, score_names};
+use crate::experiment::{
+    Bound, TrueModel, cramer_rao_bound, noise_at, run_trial, score, score_names,
+};
 use crate::fsutil::{write_atomic, write_json};
 use crate::scenario::{AxisSetting, AxisValue, Scenario, SweepAxis};
 use stats::Stats;
@@ -78,8 +80,12 @@ impl std::str::FromStr for Shard {
 /// Outcome of one trial.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Outcome {
-    /// Scores aligned with the sweep's score names.
-    Ok(Vec<f64>),
+    /// Scores aligned with the sweep's score names; `note` says why the
+    /// refinement failed (its scores are then NaN), as (reason, message).
+    Ok {
+        scores: Vec<f64>,
+        note: Option<(String, String)>,
+    },
     /// The identification failed: a short reason (category) and the message.
     Failed { reason: String, message: String },
 }
@@ -176,6 +182,23 @@ pub fn failure_reason(e: &ident::Error) -> String {
     .to_string()
 }
 
+/// A short, stable category of a refinement failure.
+pub fn refine_failure_reason(e: &ident::RefineError) -> String {
+    use ident::RefineError as E;
+    let what = match e {
+        E::InvalidParams { .. } => "invalid parameters",
+        E::Data(_) => "unusable data",
+        E::NotPositiveDefinite { .. } => "not positive definite",
+        E::NonFiniteModel => "non-finite model",
+        E::SingularModel => "singular model",
+        E::NotRepresentable { .. } => "not representable",
+        E::TooFewBins { .. } => "too few bins",
+        E::NotIdentifiable { .. } => "not identifiable",
+        E::ModalAnalysis => "modal analysis failed",
+    };
+    format!("refinement: {what}")
+}
+
 /// Runs the trials of `shard` (all if `None`) on `threads` threads.
 pub fn run(
     plan: &Plan,
@@ -193,6 +216,12 @@ pub fn run(
         .collect::<Result<_>>()?;
     let identifiers: Vec<ident::Identifier> = (0..plan.axis_values().len())
         .map(|a| plan.scenario_at(a).identifier())
+        .collect();
+    let refiners: Vec<Option<ident::refine::Refiner>> = (0..plan.axis_values().len())
+        .map(|a| {
+            let s = plan.scenario_at(a);
+            s.identification.refine.then(|| s.refiner())
+        })
         .collect();
     let keys: Vec<TrialKey> = plan
         .keys()
@@ -224,10 +253,21 @@ pub fn run(
                 let seed = plan.trial_seed(key);
                 let noise = noise_at(&plan.scenario.campaign.noise, plan.noise_levels[key.noise]);
                 let outcome = catch_unwind(AssertUnwindSafe(|| {
-                    let (_, result) =
-                        run_trial(&simulators[key.axis], &identifiers[key.axis], &noise, seed);
-                    match result {
-                        Ok(id) => Outcome::Ok(score(&id, truth)),
+                    let trial = run_trial(
+                        &simulators[key.axis],
+                        &identifiers[key.axis],
+                        refiners[key.axis].as_ref(),
+                        &noise,
+                        seed,
+                    );
+                    match trial.identification {
+                        Ok(id) => Outcome::Ok {
+                            scores: score(&id, trial.refinement.as_ref(), truth),
+                            note: match &trial.refinement {
+                                Some(Err(e)) => Some((refine_failure_reason(e), e.to_string())),
+                                _ => None,
+                            },
+                        },
                         Err(e) => Outcome::Failed {
                             reason: failure_reason(&e),
                             message: e.to_string(),
@@ -273,9 +313,10 @@ pub fn write_trials(path: &Path, plan: &Plan, names: &[String], rows: &[TrialRow
             r.seed.to_string(),
         ];
         match &r.outcome {
-            Outcome::Ok(v) => {
-                rec.extend(["ok".to_string(), String::new(), String::new()]);
-                rec.extend(v.iter().map(|x| x.to_string()));
+            Outcome::Ok { scores, note } => {
+                let (reason, message) = note.clone().unwrap_or_default();
+                rec.extend(["ok".to_string(), reason, message]);
+                rec.extend(scores.iter().map(|x| x.to_string()));
             }
             Outcome::Failed { reason, message } => {
                 rec.extend(["failed".to_string(), reason.clone(), message.clone()]);
@@ -338,15 +379,16 @@ pub fn read_trials(path: &Path, plan: &Plan, names: &[String]) -> Result<Vec<Tri
             return Err(bad("seed does not match the sweep's seed for this trial"));
         }
         let outcome = match field(4) {
-            "ok" => Outcome::Ok(
-                (0..names.len())
+            "ok" => Outcome::Ok {
+                scores: (0..names.len())
                     .map(|k| {
                         field(FIXED_COLUMNS.len() + k)
                             .parse::<f64>()
                             .map_err(|_| bad("score is not a number"))
                     })
                     .collect::<Result<_>>()?,
-            ),
+                note: (!field(5).is_empty()).then(|| (field(5).to_string(), field(6).to_string())),
+            },
             "failed" => Outcome::Failed {
                 reason: field(5).to_string(),
                 message: field(6).to_string(),
@@ -367,7 +409,18 @@ pub struct LevelSummary {
     pub failures: usize,
     pub failure_rate: f64,
     pub failure_reasons: BTreeMap<String, usize>,
+    /// Trials whose identification succeeded but whose refinement failed.
+    pub refine_failures: BTreeMap<String, usize>,
     pub scores: BTreeMap<String, Stats>,
+    /// The Cramér–Rao bound at this level (none at zero noise, or if it
+    /// could not be computed).
+    pub bound: Option<Bound>,
+    /// Per score with a bound: bound / RMS error over the successful trials
+    /// (1 = efficient).
+    pub efficiency: BTreeMap<String, f64>,
+    /// Refined M, K, damping: mean standard error reported by a single
+    /// refinement over the RMS error across trials (1 = honest error bars).
+    pub standard_error_ratio: BTreeMap<String, f64>,
 }
 
 /// Contents of `summary.json`.
@@ -379,8 +432,47 @@ pub struct Summary {
     pub levels: Vec<LevelSummary>,
 }
 
+/// Stream tag of the campaign whose (noise-free) pulses the bound is
+/// computed for; the representative campaign of the report uses the same.
+pub const BOUND_TAG: u64 = 0x5245_5052;
+
+/// The Cramér–Rao bound of every cell (axis value, noise level): for the
+/// pulses of the campaign drawn with the sweep's seed and [`BOUND_TAG`],
+/// records as acquired, and the scenario's parametrization. Deterministic,
+/// so one run and merged shards agree.
+pub fn bounds(plan: &Plan, truth: &TrueModel) -> Vec<Vec<Option<Bound>>> {
+    let seed = derive_seed(plan.seed, BOUND_TAG);
+    (0..plan.axis_values().len())
+        .map(|a| {
+            let s = plan.scenario_at(a);
+            let simulator = s.simulator(truth.model.clone()).ok();
+            let refiner = s.refiner();
+            plan.noise_levels
+                .iter()
+                .map(|&level| {
+                    let noise = noise_at(&s.campaign.noise, level);
+                    if noise.sigma(1.0, true) == 0.0 && noise.sigma(1.0, false) == 0.0 {
+                        return None;
+                    }
+                    let simulator = simulator.as_ref()?;
+                    cramer_rao_bound(
+                        simulator,
+                        &refiner,
+                        s.acquisition_intersample(),
+                        truth,
+                        &noise,
+                        seed,
+                    )
+                    .ok()
+                })
+                .collect()
+        })
+        .collect()
+}
+
 /// Summarizes rows (all trials of the plan, canonical order).
-pub fn summarize(plan: &Plan, names: &[String], rows: &[TrialRow]) -> Summary {
+pub fn summarize(plan: &Plan, truth: &TrueModel, names: &[String], rows: &[TrialRow]) -> Summary {
+    let bounds = bounds(plan, truth);
     let mut levels = Vec::new();
     for (a, axis_value) in plan.axis_values().into_iter().enumerate() {
         for (ni, &noise) in plan.noise_levels.iter().enumerate() {
@@ -389,12 +481,16 @@ pub fn summarize(plan: &Plan, names: &[String], rows: &[TrialRow]) -> Summary {
                 .filter(|r| r.key.axis == a && r.key.noise == ni)
                 .collect();
             let mut reasons = BTreeMap::new();
+            let mut refine_reasons = BTreeMap::new();
             let mut columns: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
             for r in &cell {
                 match &r.outcome {
-                    Outcome::Ok(v) => {
-                        for (c, x) in columns.iter_mut().zip(v) {
+                    Outcome::Ok { scores, note } => {
+                        for (c, x) in columns.iter_mut().zip(scores) {
                             c.push(*x);
+                        }
+                        if let Some((reason, _)) = note {
+                            *refine_reasons.entry(reason.clone()).or_insert(0) += 1;
                         }
                     }
                     Outcome::Failed { reason, .. } => {
@@ -403,6 +499,35 @@ pub fn summarize(plan: &Plan, names: &[String], rows: &[TrialRow]) -> Summary {
                 }
             }
             let failures: usize = reasons.values().sum();
+            let column = |name: &str| names.iter().position(|n| n == name).map(|i| &columns[i]);
+            let rms = |v: &[f64]| {
+                let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+                (!finite.is_empty()).then(|| {
+                    (finite.iter().map(|x| x * x).sum::<f64>() / finite.len() as f64).sqrt()
+                })
+            };
+            let bound = bounds[a][ni].clone();
+            let efficiency = match &bound {
+                Some(b) => names
+                    .iter()
+                    .filter_map(|n| {
+                        let (bound, rms) = (b.for_score(n)?, rms(column(n)?)?);
+                        (rms > 0.0).then(|| (n.clone(), bound / rms))
+                    })
+                    .collect(),
+                None => BTreeMap::new(),
+            };
+            // Meaningless without noise (errors at round-off level).
+            let standard_error_ratio = crate::experiment::REFINED
+                .iter()
+                .filter(|_| bound.is_some())
+                .filter_map(|m| {
+                    let se = column(&format!("{m}_refined_se"))?;
+                    let err = rms(column(&format!("{m}_refined_err"))?)?;
+                    let mean_se = Stats::of(se).mean?;
+                    (err > 0.0).then(|| (m.to_string(), mean_se / err))
+                })
+                .collect();
             levels.push(LevelSummary {
                 axis_value: axis_value.clone(),
                 noise,
@@ -414,11 +539,15 @@ pub fn summarize(plan: &Plan, names: &[String], rows: &[TrialRow]) -> Summary {
                     failures as f64 / cell.len() as f64
                 },
                 failure_reasons: reasons,
+                refine_failures: refine_reasons,
                 scores: names
                     .iter()
                     .cloned()
                     .zip(columns.iter().map(|c| Stats::of(c)))
                     .collect(),
+                bound,
+                efficiency,
+                standard_error_ratio,
             });
         }
     }
@@ -440,21 +569,19 @@ pub struct Manifest {
 }
 
 /// Writes a sweep directory: `trials.csv`, `summary.json` (complete runs
-/// only) and `sweep.json`.
+/// only: pass their summary) and `sweep.json`.
 pub fn write_dir(
     dir: &Path,
     manifest: &Manifest,
     names: &[String],
     rows: &[TrialRow],
+    summary: Option<&Summary>,
 ) -> Result<()> {
     std::fs::create_dir_all(dir)
         .with_context(|| format!("{}: cannot create directory", dir.display()))?;
     write_trials(&dir.join("trials.csv"), &manifest.plan, names, rows)?;
-    if manifest.shard.is_none() {
-        write_json(
-            &dir.join("summary.json"),
-            &summarize(&manifest.plan, names, rows),
-        )?;
+    if let Some(summary) = summary {
+        write_json(&dir.join("summary.json"), summary)?;
     } else {
         // A shard's summary would be partial: remove a stale one.
         let stale = dir.join("summary.json");
@@ -493,13 +620,9 @@ pub fn merge(dirs: &[&Path], out: &Path) -> Result<Summary> {
             );
         }
     }
-    let dofs = first
-        .plan
-        .scenario
-        .model()
-        .map_err(|e| anyhow!("{e}"))?
-        .dofs();
-    let names = score_names(dofs);
+    let model = first.plan.scenario.model().map_err(|e| anyhow!("{e}"))?;
+    let truth = TrueModel::new(model).map_err(|e| anyhow!("{e}"))?;
+    let names = score_names(truth.dofs(), first.plan.scenario.identification.refine);
     let mut rows: BTreeMap<TrialKey, TrialRow> = BTreeMap::new();
     for d in dirs {
         for r in read_trials(&d.join("trials.csv"), &first.plan, &names)? {
@@ -530,6 +653,7 @@ pub fn merge(dirs: &[&Path], out: &Path) -> Result<Summary> {
         shard: None,
         ..first.clone()
     };
-    write_dir(out, &manifest, &names, &rows)?;
-    Ok(summarize(&manifest.plan, &names, &rows))
+    let summary = summarize(&manifest.plan, &truth, &names, &rows);
+    write_dir(out, &manifest, &names, &rows, Some(&summary))?;
+    Ok(summary)
 }
