@@ -136,6 +136,19 @@ pub struct IdentifyArgs {
     /// Skip the error bars (jackknife over the hits: one extra identification per hit)
     #[arg(long)]
     pub no_uncertainty: bool,
+    /// Refine M, K and the damping matrix by maximum likelihood over all hits (records only), with standard errors
+    #[arg(long, conflicts_with = "realization")]
+    pub refine: bool,
+    /// Parameters of the refinement: symmetric M, K, damping (`full`) or one mass per floor and one spring and dashpot per storey plus ground dashpots (`shear-frame`)
+    #[arg(long, value_enum, default_value_t = ParametrizationArg::Full, requires = "refine")]
+    pub parametrization: ParametrizationArg,
+}
+
+/// Physical parametrization of `--refine`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ParametrizationArg {
+    Full,
+    ShearFrame,
 }
 
 #[derive(Debug, Args)]

@@ -243,3 +243,45 @@ fn bad_input_gets_a_clear_message_and_exit_code_2() {
     assert_eq!(code, 2);
     assert!(err.contains("`A[1]` has 1 entries, row 0 has 2"), "{err}");
 }
+
+#[test]
+fn refine_recovers_non_proportional_damping_with_honest_standard_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = simulate(
+        dir.path(),
+        s(&repo("scenarios/paper-case1-dashpot.toml")),
+        &[],
+    );
+    let truth = read_json(&dir.path().join("truth.json"));
+    let id = identify_json(&files, &["--refine", "--no-uncertainty"]);
+    let r = &id["refined"];
+    assert_eq!(r["converged"], true, "{}", r["stop"]);
+    let t = matrix(&truth["damping"]);
+    let refined = matrix(&r["damping"]);
+    let std = matrix(&r["damping_std"]);
+    let rel_std = std.iter().flatten().map(|x| x * x).sum::<f64>().sqrt()
+        / t.iter().flatten().map(|x| x * x).sum::<f64>().sqrt();
+    let err = rel_fro(&refined, &t);
+    // The refinement's error is of the size of its reported standard error
+    // (the Frobenius error of an efficient estimator has RMS equal to the
+    // Frobenius norm of the entry standard errors; 3x covers one campaign).
+    assert!(
+        err < 3.0 * rel_std,
+        "refined damping error {err} vs reported {rel_std}"
+    );
+    // Rayleigh damping cannot represent the dashpot: wrong by construction
+    // (12.6 % in the sweeps), the refined one within ~1 %.
+    let rayleigh = rel_fro(&matrix(&id["damping_rayleigh"]), &t);
+    assert!(
+        rayleigh > 0.05 && err < 0.02,
+        "Rayleigh {rayleigh}, refined {err}"
+    );
+    assert!(rel_fro(&matrix(&r["mass"]), &matrix(&truth["mass"])) < 0.01);
+    assert_eq!(r["modes"].as_array().unwrap().len(), 2);
+    let human = ok(&[
+        &["identify", "--refine", "--no-uncertainty"][..],
+        &files.iter().map(String::as_str).collect::<Vec<_>>(),
+    ]
+    .concat());
+    assert!(human.contains("Refined by maximum likelihood"), "{human}");
+}

@@ -4,11 +4,12 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow, bail};
+use ident::refine::{Dashpot, Node, Parametrization, Refinement, Refiner};
 use ident::{Identification, Identifier, ModelOrder, ObserverOrder, Record};
 use nalgebra::DMatrix;
 use serde::Serialize;
 
-use crate::cli::IdentifyArgs;
+use crate::cli::{IdentifyArgs, ParametrizationArg};
 use crate::format::{matrix, sig};
 use crate::quality::{self, HitQuality, QualitySettings};
 use crate::records::{self, ChannelSpec, ReadOptions, RecordFile};
@@ -298,7 +299,160 @@ fn identify_records(args: &IdentifyArgs) -> Result<IdentifyReport> {
     report.dropped_hits = dropped;
     report.uncertainty = uncertainty;
     report.uncertainty_skipped = uncertainty_skipped;
+    if args.refine {
+        report.refined = Some(refine(args, &c, &result, collocated)?);
+    }
     Ok(report)
+}
+
+/// `--refine`: maximum-likelihood M, K and damping from all hits, started
+/// from MKR's M and K with the Rayleigh damping.
+fn refine(
+    args: &IdentifyArgs,
+    c: &LoadedCampaign,
+    result: &Identification,
+    collocated: (usize, usize),
+) -> Result<RefinedReport> {
+    if c.input_names.len() != 1 {
+        bail!(
+            "--refine: supports one force input, got {} ({})",
+            c.input_names.len(),
+            c.input_names.join(", ")
+        );
+    }
+    let n = c.output_names.len();
+    let parametrization = match args.parametrization {
+        ParametrizationArg::Full => Parametrization::Full,
+        ParametrizationArg::ShearFrame => Parametrization::ShearFrame {
+            dashpots: (1..n)
+                .map(|i| Dashpot::between(Node::Ground, Node::Dof(i)))
+                .collect(),
+        },
+    };
+    let refiner = Refiner::default()
+        .parametrization(parametrization)
+        .intersample(args.intersample.into())
+        .input_dofs(vec![collocated.0]);
+    let r = refiner
+        .refine(
+            &c.records,
+            c.dt_s,
+            &crate::experiment::initial_model(result),
+        )
+        .map_err(|e| anyhow!("--refine: {e}"))?;
+    Ok(RefinedReport::new(&r))
+}
+
+/// The maximum-likelihood refinement in the JSON output.
+#[derive(Debug, Clone, Serialize)]
+pub struct RefinedReport {
+    pub mass: Vec<Vec<f64>>,
+    pub mass_std: Vec<Vec<f64>>,
+    pub stiffness: Vec<Vec<f64>>,
+    pub stiffness_std: Vec<Vec<f64>>,
+    pub damping: Vec<Vec<f64>>,
+    pub damping_std: Vec<Vec<f64>>,
+    pub modes: Vec<RefinedMode>,
+    /// Estimated noise standard deviations: per output, per input.
+    pub noise_outputs: Vec<f64>,
+    pub noise_inputs: Vec<f64>,
+    pub iterations: usize,
+    /// Why the optimizer stopped (`Gradient`, `Step`, `Cost`, `MaxIterations`, `NoProgress`).
+    pub stop: String,
+    pub converged: bool,
+    pub initial_cost: f64,
+    pub cost: f64,
+}
+
+/// A mode of the refined model with standard errors (delta method).
+#[derive(Debug, Clone, Serialize)]
+pub struct RefinedMode {
+    pub frequency_hz: f64,
+    pub frequency_std_hz: f64,
+    pub damping_ratio: f64,
+    pub damping_ratio_std: f64,
+    pub mode_shape: Vec<[f64; 2]>,
+}
+
+impl RefinedReport {
+    pub fn new(r: &Refinement) -> Self {
+        let u = &r.uncertainty;
+        RefinedReport {
+            mass: rows(&r.mass),
+            mass_std: rows(&u.mass_std),
+            stiffness: rows(&r.stiffness),
+            stiffness_std: rows(&u.stiffness_std),
+            damping: rows(&r.damping),
+            damping_std: rows(&u.damping_std),
+            modes: u
+                .modes
+                .iter()
+                .map(|m| RefinedMode {
+                    frequency_hz: m.frequency_hz,
+                    frequency_std_hz: m.frequency_std_hz,
+                    damping_ratio: m.damping_ratio,
+                    damping_ratio_std: m.damping_ratio_std,
+                    mode_shape: m.shape.iter().map(|z| [z.re, z.im]).collect(),
+                })
+                .collect(),
+            noise_outputs: r.noise.outputs.clone(),
+            noise_inputs: r.noise.inputs.clone(),
+            iterations: r.iterations,
+            stop: format!("{:?}", r.stop),
+            converged: r.stop.converged(),
+            initial_cost: r.initial_cost,
+            cost: r.cost,
+        }
+    }
+
+    /// Readable tables (value ± standard error).
+    pub fn human(&self) -> String {
+        let mut out = String::from("\nRefined by maximum likelihood (value ± standard error)\n");
+        for m in &self.modes {
+            out.push_str(&format!(
+                "  f = {} Hz, xi = {} %\n",
+                plus_minus(m.frequency_hz, Some(m.frequency_std_hz), 6),
+                plus_minus(
+                    100.0 * m.damping_ratio,
+                    Some(100.0 * m.damping_ratio_std),
+                    4
+                )
+            ));
+        }
+        out.push_str(&matrix_table(
+            "Mass M [kg]",
+            &self.mass,
+            Some(&self.mass_std),
+        ));
+        out.push_str(&matrix_table(
+            "Stiffness K [N/m]",
+            &self.stiffness,
+            Some(&self.stiffness_std),
+        ));
+        out.push_str(&matrix_table(
+            "Damping [N s/m]",
+            &self.damping,
+            Some(&self.damping_std),
+        ));
+        out.push_str(&format!(
+            "  noise std: outputs {}, input {}; {} iterations, stopped on {} (cost {} -> {})\n",
+            self.noise_outputs
+                .iter()
+                .map(|x| sig(*x, 3))
+                .collect::<Vec<_>>()
+                .join(", "),
+            self.noise_inputs
+                .iter()
+                .map(|x| sig(*x, 3))
+                .collect::<Vec<_>>()
+                .join(", "),
+            self.iterations,
+            self.stop,
+            sig(self.initial_cost, 4),
+            sig(self.cost, 4)
+        ));
+        out
+    }
 }
 
 /// One warning line per failed check (and note), naming the file.
@@ -736,6 +890,9 @@ pub struct IdentifyReport {
     /// uncertainty's per-mode lists.
     #[serde(skip)]
     pub mkr_modes: Vec<usize>,
+    /// The maximum-likelihood refinement (with `--refine`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refined: Option<RefinedReport>,
 }
 
 impl IdentifyReport {
@@ -789,6 +946,7 @@ impl IdentifyReport {
             uncertainty: None,
             uncertainty_skipped: None,
             mkr_modes: r.mkr_modes.clone(),
+            refined: None,
         }
     }
 
@@ -945,6 +1103,9 @@ impl IdentifyReport {
         ));
         if self.polarity_flipped {
             out.push_str("Input polarity was inverted and has been flipped.\n");
+        }
+        if let Some(r) = &self.refined {
+            out.push_str(&r.human());
         }
         if !self.warnings.is_empty() {
             out.push_str("\nWarnings\n");
