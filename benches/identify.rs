@@ -1,6 +1,7 @@
 //! Time to identify one 10-hit campaign (paper case 1, 2048 samples per
-//! hit, 1 % noise) with each intersample assumption, and the stabilization
-//! diagram of the report.
+//! hit, 1 % noise) with each intersample assumption, to refine it by
+//! maximum likelihood, the Cramér–Rao bound, and the stabilization diagram
+//! of the report.
 
 use std::path::Path;
 
@@ -24,7 +25,29 @@ fn bench_identify(c: &mut Criterion) {
         c.bench_function(&format!("identify 10-hit campaign ({label})"), |b| {
             b.iter(|| identifier.identify(&records, campaign.dt_s).unwrap())
         });
+        let id = identifier.identify(&records, campaign.dt_s).unwrap();
+        let refiner = s.refiner();
+        let initial = frameid::experiment::initial_model(&id);
+        c.bench_function(
+            &format!("refine 10-hit campaign by maximum likelihood ({label})"),
+            |b| b.iter(|| refiner.refine(&records, campaign.dt_s, &initial).unwrap()),
+        );
         if label.starts_with("analyzer") {
+            let truth = frameid::experiment::TrueModel::new(loaded.model.clone()).unwrap();
+            let simulator = s.simulator(loaded.model.clone()).unwrap();
+            c.bench_function("Cramér–Rao bound of a 10-hit campaign (analyzer)", |b| {
+                b.iter(|| {
+                    frameid::experiment::cramer_rao_bound(
+                        &simulator,
+                        &refiner,
+                        s.acquisition_intersample(),
+                        &truth,
+                        &s.campaign.noise,
+                        1,
+                    )
+                    .unwrap()
+                })
+            });
             let valid = identifier.check().unwrap();
             c.bench_function("stabilization diagram to order 24", |b| {
                 b.iter(|| {

@@ -156,7 +156,7 @@ pub struct StudyArgs {
     /// Output folder (sweeps of each scenario and report.html)
     #[arg(long, default_value = "frameid-study")]
     pub out: PathBuf,
-    /// Trials per noise level (default: the scenarios' [sweep] tables)
+    /// Trials per noise level (default 50)
     #[arg(long)]
     pub trials: Option<usize>,
     /// Worker threads (default: all cores)

@@ -30,6 +30,10 @@ pub const SCENARIOS: [(&str, &str); 3] = [
     ),
 ];
 
+/// Trials per noise level of the default study (unless `--trials`): 5
+/// levels x 3 scenarios x 50 = 750 simulated and identified campaigns.
+pub const STUDY_TRIALS: usize = 50;
+
 /// Parses a built-in scenario.
 pub fn builtin(name: &str, text: &str) -> Result<LoadedScenario> {
     let path = PathBuf::from(format!("scenarios/{name}"));
@@ -58,7 +62,12 @@ pub fn run(args: &StudyArgs) -> Result<()> {
     let mut dirs = Vec::new();
     for (name, text) in SCENARIOS {
         let loaded = builtin(name, text)?;
-        let plan = plan(&loaded, None, args.trials, None)?;
+        let plan = plan(
+            &loaded,
+            None,
+            Some(args.trials.unwrap_or(STUDY_TRIALS)),
+            None,
+        )?;
         let dir = args.out.join(&loaded.scenario.name);
         let t = Instant::now();
         let summary =

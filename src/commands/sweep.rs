@@ -144,17 +144,20 @@ pub fn merge(args: &MergeArgs) -> Result<()> {
     Ok(())
 }
 
-/// Median errors per noise level: frequencies, damping ratios, M, K and
-/// both damping estimates.
+/// Median errors per noise level: frequencies and damping ratios (worst
+/// mode), M, K and the damping estimates (MKR, Rayleigh and, if the sweep
+/// refines, maximum likelihood).
 pub fn summary_table(s: &Summary) -> String {
+    let refined = s.plan.scenario.identification.refine;
     let mut out = String::from(
-        "  axis         noise   fail  f err    xi err   M err    K err    R(MKR)   R(Rayl.)  (medians, worst mode)\n",
+        "  axis         noise   fail  f err    xi err   M err    K err    R(MKR)   R(Rayl.)",
     );
-    let dofs = s
-        .score_names
-        .iter()
-        .filter(|n| n.starts_with('f') && n.ends_with("_err"))
-        .count();
+    out.push_str(if refined {
+        "  R(ML)    (medians, worst mode)\n"
+    } else {
+        "  (medians, worst mode)\n"
+    });
+    let dofs = s.plan.scenario.model().map_or(0, |m| m.dofs());
     for l in &s.levels {
         let med = |name: &str| l.scores.get(name).and_then(|st| st.median);
         let worst = |prefix: &str| {
@@ -162,9 +165,9 @@ pub fn summary_table(s: &Summary) -> String {
                 .filter_map(|j| med(&format!("{prefix}{j}_err")))
                 .fold(None, |a: Option<f64>, x| Some(a.map_or(x, |a| a.max(x))))
         };
-        let cell = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{:.2e}", v));
+        let cell = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.2e}"));
         out.push_str(&format!(
-            "  {:<10} {:>6}%  {:>4}  {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}\n",
+            "  {:<10} {:>6}%  {:>4}  {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
             l.axis_value
                 .as_ref()
                 .map(ToString::to_string)
@@ -178,6 +181,10 @@ pub fn summary_table(s: &Summary) -> String {
             cell(med("damping_mkr_err")),
             cell(med("damping_rayleigh_err")),
         ));
+        if refined {
+            out.push_str(&format!(" {:>8}", cell(med("damping_refined_err"))));
+        }
+        out.push('\n');
     }
     out
 }
