@@ -15,7 +15,7 @@ use sim::{Campaign, Model, derive_seed};
 use crate::experiment::{TrueModel, campaign_records, initial_model, noise_at};
 use crate::quality::{QualitySettings, assess_hit};
 use crate::scenario::Scenario;
-use crate::uncertainty::{MatrixSpread, Uncertainty, jackknife};
+use crate::uncertainty::{Uncertainty, jackknife};
 
 /// The representative campaign's data (`representative.json`).
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -225,11 +225,13 @@ fn frfs(c: &Campaign, identified: &Model, truth: &Model, input: usize) -> Vec<rm
         .collect()
 }
 
+/// Rows `{prefix}ij` (i <= j) of a matrix against the truth, with the
+/// standard deviation `std(i, j)` where known.
 fn matrix_rows(
     prefix: &str,
     est: &DMatrix<f64>,
     truth: &DMatrix<f64>,
-    std: Option<&MatrixSpread>,
+    std: impl Fn(usize, usize) -> Option<f64>,
 ) -> Vec<rm::ComparisonRow> {
     let n = truth.nrows();
     let mut rows = Vec::new();
@@ -239,7 +241,7 @@ fn matrix_rows(
                 label: format!("{prefix}{}{}", i + 1, j + 1),
                 truth: truth[(i, j)],
                 identified: est[(i, j)],
-                std: std.map(|s| s.std[i][j]),
+                std: std(i, j),
             });
         }
     }
@@ -294,37 +296,30 @@ fn tables(
         table(
             "Mass matrix M",
             "kg",
-            matrix_rows("M", &id.mass, &truth.model.mass, spread.map(|s| &s.mass)),
+            matrix_rows("M", &id.mass, &truth.model.mass, |i, j| {
+                spread.map(|s| s.mass.std[i][j])
+            }),
         ),
         table(
             "Stiffness matrix K",
             "N/m",
-            matrix_rows(
-                "K",
-                &id.stiffness,
-                &truth.model.stiffness,
-                spread.map(|s| &s.stiffness),
-            ),
+            matrix_rows("K", &id.stiffness, &truth.model.stiffness, |i, j| {
+                spread.map(|s| s.stiffness.std[i][j])
+            }),
         ),
         table(
             "Damping matrix, MKR (eq. 30)",
             "N s/m",
-            matrix_rows(
-                "R",
-                &id.damping_mkr,
-                &truth.model.damping,
-                spread.map(|s| &s.damping_mkr),
-            ),
+            matrix_rows("R", &id.damping_mkr, &truth.model.damping, |i, j| {
+                spread.map(|s| s.damping_mkr.std[i][j])
+            }),
         ),
         table(
             "Damping matrix, Rayleigh alpha M + beta K (eq. 16-19)",
             "N s/m",
-            matrix_rows(
-                "R",
-                &id.damping_rayleigh,
-                &truth.model.damping,
-                spread.map(|s| &s.damping_rayleigh),
-            ),
+            matrix_rows("R", &id.damping_rayleigh, &truth.model.damping, |i, j| {
+                spread.map(|s| s.damping_rayleigh.std[i][j])
+            }),
         ),
     ]
 }
@@ -351,18 +346,7 @@ fn refined_tables(r: &ident::refine::Refinement, truth: &TrueModel) -> Vec<rm::C
             .collect()
     };
     let matrix = |prefix: &str, est: &DMatrix<f64>, std: &DMatrix<f64>, truth: &DMatrix<f64>| {
-        let mut rows = Vec::new();
-        for i in 0..n {
-            for j in i..n {
-                rows.push(rm::ComparisonRow {
-                    label: format!("{prefix}{}{}", i + 1, j + 1),
-                    truth: truth[(i, j)],
-                    identified: est[(i, j)],
-                    std: Some(std[(i, j)]),
-                });
-            }
-        }
-        rows
+        matrix_rows(prefix, est, truth, |i, j| Some(std[(i, j)]))
     };
     let table = |title: &str, unit: &str, rows| rm::ComparisonTable {
         title: title.into(),

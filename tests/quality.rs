@@ -10,6 +10,7 @@ use std::path::Path;
 use common::*;
 use frameid::cli::RecordFormat;
 use frameid::commands::simulate::write_campaign;
+use frameid::experiment::campaign_records;
 use frameid::quality::{Check, HitQuality, QualitySettings, assess_hit};
 use frameid::scenario::LoadedScenario;
 use ident::Record;
@@ -39,25 +40,12 @@ fn noise(fraction: f64) -> NoiseSettings {
     }
 }
 
-fn records(c: &Campaign) -> Vec<Record> {
-    c.hits
-        .iter()
-        .map(|h| {
-            let n = h.force.len();
-            Record::new(
-                DMatrix::from_row_slice(1, n, &h.force),
-                DMatrix::from_fn(h.accelerations.len(), n, |i, k| h.accelerations[i][k]),
-            )
-        })
-        .collect()
-}
-
 fn assess(c: &Campaign, settings: &QualitySettings) -> Vec<HitQuality> {
     let inputs = vec!["force".to_string()];
     let outputs: Vec<String> = (1..=c.hits[0].accelerations.len())
         .map(|i| format!("acc{i}"))
         .collect();
-    records(c)
+    campaign_records(c)
         .iter()
         .map(|r| assess_hit(r, c.dt_s, &inputs, &outputs, settings))
         .collect()
@@ -308,7 +296,7 @@ fn noise_level_snr_and_short_pretriggers() {
 fn records_without_a_hit_are_fatal() {
     let (sim, _) = simulator("paper-case1.toml", |s| s.campaign.hits = 1);
     let c = sim.simulate(10);
-    let mut r = records(&c).remove(0);
+    let mut r = campaign_records(&c).remove(0);
     let names = (
         vec!["force".to_string()],
         vec!["acc1".into(), "acc2".into()],

@@ -10,25 +10,11 @@ use std::path::Path;
 use std::time::Instant;
 
 use common::*;
+use frameid::experiment::campaign_records;
 use frameid::scenario::LoadedScenario;
 use frameid::uncertainty::{MIN_HITS, Uncertainty, UncertaintyError, jackknife};
-use ident::{Identification, Identifier, Record};
-use nalgebra::DMatrix;
+use ident::{Identification, Identifier};
 use rayon::prelude::*;
-use sim::Campaign;
-
-fn records(c: &Campaign) -> Vec<Record> {
-    c.hits
-        .iter()
-        .map(|h| {
-            let n = h.force.len();
-            Record::new(
-                DMatrix::from_row_slice(1, n, &h.force),
-                DMatrix::from_fn(h.accelerations.len(), n, |i, k| h.accelerations[i][k]),
-            )
-        })
-        .collect()
-}
 
 fn case1() -> LoadedScenario {
     LoadedScenario::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/paper-case1.toml"))
@@ -42,7 +28,7 @@ fn labels(n: usize) -> Vec<String> {
 /// Joint identification and jackknife of one seeded campaign.
 fn identify(sim: &sim::Simulator, seed: u64) -> (Identification, Uncertainty) {
     let c = sim.simulate(seed);
-    let recs = records(&c);
+    let recs = campaign_records(&c);
     let id = Identifier::default();
     let joint = id.identify(&recs, c.dt_s).unwrap();
     let u = jackknife(&id, &recs, c.dt_s, &joint, &labels(recs.len())).unwrap();
@@ -124,7 +110,7 @@ fn the_jackknife_does_not_depend_on_the_number_of_threads() {
     sc.campaign.hits = 5;
     let sim = sc.simulator(s.model.clone()).unwrap();
     let c = sim.simulate(42);
-    let recs = records(&c);
+    let recs = campaign_records(&c);
     let id = Identifier::default();
     let joint = id.identify(&recs, c.dt_s).unwrap();
     let with = |threads: usize| {
@@ -152,7 +138,7 @@ fn too_few_hits_give_no_uncertainty() {
     sc.campaign.hits = MIN_HITS - 1;
     let sim = sc.simulator(s.model.clone()).unwrap();
     let c = sim.simulate(1);
-    let recs = records(&c);
+    let recs = campaign_records(&c);
     let id = Identifier::default();
     let joint = id.identify(&recs, c.dt_s).unwrap();
     assert_eq!(

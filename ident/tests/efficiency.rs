@@ -245,27 +245,6 @@ fn add_noise(records: &mut [Record], levels: &NoiseLevels, rng: &mut ChaCha8Rng)
     }
 }
 
-/// MKR-like start: every M and K entry off by up to 2 % (symmetrically), damping x3.
-fn perturbed(frame: &Frame, rng: &mut ChaCha8Rng) -> SecondOrder {
-    let n = frame.dofs();
-    let mut jitter = |m: &DMatrix<f64>| {
-        let mut out = m.clone();
-        for i in 0..n {
-            for j in i..n {
-                let f = 1.0 + 0.02 * (2.0 * rng.random::<f64>() - 1.0);
-                out[(i, j)] *= f;
-                out[(j, i)] = out[(i, j)];
-            }
-        }
-        out
-    };
-    SecondOrder::new(
-        jitter(&frame.mass),
-        jitter(&frame.stiffness),
-        &frame.damping * 3.0,
-    )
-}
-
 fn run_trial(
     frame: &Frame,
     pivots: &[usize],

@@ -29,27 +29,6 @@ fn with_storey_dashpot(mut frame: Frame, value: f64) -> Frame {
     frame
 }
 
-/// MKR-like start: every M and K entry off by up to 2 % (symmetrically), damping x3.
-fn perturbed(frame: &Frame, rng: &mut ChaCha8Rng) -> SecondOrder {
-    let n = frame.dofs();
-    let mut jitter = |m: &DMatrix<f64>| {
-        let mut out = m.clone();
-        for i in 0..n {
-            for j in i..n {
-                let f = 1.0 + 0.02 * (2.0 * rng.random::<f64>() - 1.0);
-                out[(i, j)] *= f;
-                out[(j, i)] = out[(i, j)];
-            }
-        }
-        out
-    };
-    SecondOrder::new(
-        jitter(&frame.mass),
-        jitter(&frame.stiffness),
-        &frame.damping * 3.0,
-    )
-}
-
 fn shear3() -> Parametrization {
     // Rayleigh damping alpha M needs ground dashpots at DOFs 1 and 2.
     Parametrization::ShearFrame {

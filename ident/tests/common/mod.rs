@@ -324,3 +324,24 @@ pub fn add_output_noise(records: &mut [Record], fraction: f64, rng: &mut ChaCha8
 pub fn rel(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
     (a - b).norm() / b.norm()
 }
+
+/// MKR-like start: every M and K entry off by up to 2 % (symmetrically), damping x3.
+pub fn perturbed(frame: &Frame, rng: &mut ChaCha8Rng) -> ident::refine::SecondOrder {
+    let n = frame.dofs();
+    let mut jitter = |m: &DMatrix<f64>| {
+        let mut out = m.clone();
+        for i in 0..n {
+            for j in i..n {
+                let f = 1.0 + 0.02 * (2.0 * rng.random::<f64>() - 1.0);
+                out[(i, j)] *= f;
+                out[(j, i)] = out[(i, j)];
+            }
+        }
+        out
+    };
+    ident::refine::SecondOrder::new(
+        jitter(&frame.mass),
+        jitter(&frame.stiffness),
+        &frame.damping * 3.0,
+    )
+}
