@@ -137,8 +137,9 @@ fn failed_trials_are_counted_with_their_reason() {
     let dir = tempfile::tempdir().unwrap();
     // Model order 2 cannot hold the frame's two modes: every trial fails
     // with "order not identifiable", and the sweep still completes.
-    let text = std::fs::read_to_string(repo("scenarios/paper-case1.toml")).unwrap()
-        + "\n[identification]\norder = 2\n";
+    let text = std::fs::read_to_string(repo("scenarios/paper-case1.toml"))
+        .unwrap()
+        .replace("[identification]", "[identification]\norder = 2");
     let scenario = dir.path().join("order2.toml");
     std::fs::write(&scenario, text).unwrap();
     let out = dir.path().join("s");
