@@ -282,55 +282,63 @@ fn setup_rows(summary: &Summary) -> Result<Vec<rm::SetupRow>> {
 }
 
 /// Label, unit and group of a score shown in the accuracy charts; `None`
-/// for scores kept only in the files (signed entry errors, counters).
+/// for scores kept only in the files (signed entry errors, standard
+/// errors, counters).
 fn describe(name: &str) -> Option<(String, String, String)> {
-    let rel = "relative error".to_string();
-    let mode = |prefix: &str, suffix: &str| {
-        name.strip_prefix(prefix)
-            .and_then(|r| r.strip_suffix(suffix))
+    let (base, refined) = match name.split_once("_refined") {
+        Some((b, rest)) => (format!("{b}{rest}"), true),
+        None => (name.to_string(), false),
+    };
+    let suffix = if refined { ", refined" } else { "" };
+    let mode = |prefix: &str, tail: &str| {
+        base.strip_prefix(prefix)
+            .and_then(|r| r.strip_suffix(tail))
             .and_then(|j| j.parse::<usize>().ok())
     };
+    let rel = "relative error".to_string();
+    let fro = "relative Frobenius error".to_string();
     if let Some(j) = mode("f", "_err") {
-        return Some((format!("Natural frequency f{j}"), rel, "frequency".into()));
+        return Some((
+            format!("Natural frequency f{j}{suffix}"),
+            rel,
+            "frequency".into(),
+        ));
     }
     if let Some(j) = mode("xi", "_err") {
-        return Some((format!("Damping ratio xi{j}"), rel, "damping ratio".into()));
+        return Some((
+            format!("Damping ratio xi{j}{suffix}"),
+            rel,
+            "damping ratio".into(),
+        ));
     }
     if let Some(j) = mode("mac", "_defect") {
         return Some((
-            format!("Mode shape {j}: 1 - MAC"),
+            format!("Mode shape {j}{suffix}: 1 - MAC"),
             "1 - MAC".into(),
             "mode shape".into(),
         ));
     }
-    match name {
-        "mass_err" => Some((
-            "Mass matrix M".into(),
-            "relative Frobenius error".into(),
-            "matrices".into(),
-        )),
-        "stiffness_err" => Some((
-            "Stiffness matrix K".into(),
-            "relative Frobenius error".into(),
-            "matrices".into(),
-        )),
-        "damping_mkr_err" => Some((
-            "Damping, MKR".into(),
-            "relative Frobenius error".into(),
-            "damping matrices".into(),
-        )),
-        "damping_rayleigh_err" => Some((
-            "Damping, Rayleigh".into(),
-            "relative Frobenius error".into(),
-            "damping matrices".into(),
-        )),
-        "consistency" => Some((
-            "Second-order consistency ||W W^T|| / ||W L W^T||".into(),
-            "ratio".into(),
-            "diagnostics".into(),
-        )),
-        _ => None,
-    }
+    let (label, group) = match (base.as_str(), refined) {
+        ("mass_err", _) => ("Mass matrix M", "matrices"),
+        ("stiffness_err", _) => ("Stiffness matrix K", "matrices"),
+        ("damping_mkr_err", false) => ("Damping, MKR", "damping matrices"),
+        ("damping_rayleigh_err", false) => ("Damping, Rayleigh", "damping matrices"),
+        ("damping_err", true) => ("Damping, refined (maximum likelihood)", "damping matrices"),
+        ("consistency", false) => {
+            return Some((
+                "Second-order consistency ||W W^T|| / ||W L W^T||".into(),
+                "ratio".into(),
+                "diagnostics".into(),
+            ));
+        }
+        _ => return None,
+    };
+    let label = if refined && group == "matrices" {
+        format!("{label}, refined")
+    } else {
+        label.to_string()
+    };
+    Some((label, fro, group.into()))
 }
 
 /// The accuracy section: one panel per axis value.

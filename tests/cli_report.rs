@@ -92,6 +92,27 @@ fn report_of_a_sweep_has_every_section_and_is_drawn_from_the_data() {
             select(&doc, &format!("{id} svg[data-chart=damping-comparison]")).len(),
             1
         );
+        // The refined (maximum-likelihood) estimates have their own charts,
+        // and the refined damping joins MKR and Rayleigh in the comparison.
+        for key in [
+            "mass_refined_err",
+            "stiffness_refined_err",
+            "f1_refined_err",
+            "xi1_refined_err",
+        ] {
+            assert_eq!(
+                select(&doc, &format!("{id} figure[data-quantity={key}]")).len(),
+                1,
+                "{key}"
+            );
+        }
+        let refined = select(
+            &doc,
+            &format!(
+                "{id} svg[data-chart=damping-comparison] g.series[data-series=refined-median][data-role=markers]"
+            ),
+        );
+        assert_eq!(refined.len(), 1);
         // Every accuracy chart's median has one point per noise level.
         let medians = select(
             &doc,
