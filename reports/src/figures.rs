@@ -744,8 +744,22 @@ pub fn damping_pair(
         y,
         size,
     } = *view;
+    // Every estimator of the damping matrix shares one Cramér–Rao bound:
+    // draw it once, with the last series that carries it.
+    let last_with_bound = [Some(mkr), Some(rayleigh), refined]
+        .iter()
+        .rposition(|q| q.is_some_and(|q| q.bound.is_some()));
+    let without_bound = |q: &Quantity, i: usize| -> Quantity {
+        let mut q = q.clone();
+        if last_with_bound != Some(i) {
+            q.bound = None;
+        }
+        q
+    };
+    let (mkr_drawn, rayleigh_drawn) = (without_bound(mkr, 0), without_bound(rayleigh, 1));
+    let refined_drawn = refined.map(|r| without_bound(r, 2));
     let mut layers = quantity_layers(
-        mkr,
+        &mkr_drawn,
         &panel.noise_levels,
         "mkr",
         "MKR",
@@ -753,14 +767,14 @@ pub fn damping_pair(
         Shape::Square,
     );
     layers.extend(quantity_layers(
-        rayleigh,
+        &rayleigh_drawn,
         &panel.noise_levels,
         "rayleigh",
         "Rayleigh",
         BLUE,
         Shape::Circle,
     ));
-    if let Some(r) = refined {
+    if let Some(r) = &refined_drawn {
         layers.extend(quantity_layers(
             r,
             &panel.noise_levels,
