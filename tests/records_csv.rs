@@ -1,11 +1,14 @@
 //! CSV records: what is accepted, how it is interpreted, and how every kind
 //! of bad input is refused.
 
+mod common;
+
+use common::{parse_problem, spec};
 use std::path::Path;
 
 use frameid::records::{
-    Channel, ChannelSpec, Format, Problem, ReadOptions, RecordError, RecordFile, parse_record,
-    read_record, write_csv,
+    Channel, Format, Problem, ReadOptions, RecordError, RecordFile, parse_record, read_record,
+    write_csv,
 };
 
 fn parse(content: &str) -> Result<RecordFile, RecordError> {
@@ -22,26 +25,6 @@ fn parse_fs(content: &str, fs: f64) -> Result<RecordFile, RecordError> {
         Path::new("hit1.csv"),
         &ReadOptions::with_fs_hz(fs),
     )
-}
-
-fn spec(s: &str) -> ChannelSpec {
-    s.parse().unwrap()
-}
-
-/// The problem of a parse error, and its message (which must name the file).
-fn problem(r: Result<RecordFile, RecordError>) -> (Problem, String) {
-    match r {
-        Err(e @ RecordError::Parse { .. }) => {
-            let msg = e.to_string();
-            assert!(msg.starts_with("hit1.csv: "), "{msg}");
-            let RecordError::Parse { problem, .. } = e else {
-                unreachable!()
-            };
-            (problem, msg)
-        }
-        Err(e) => panic!("not a parse error: {e}"),
-        Ok(r) => panic!("accepted: {r:?}"),
-    }
 }
 
 #[test]
@@ -106,7 +89,7 @@ fn no_time_column_uses_fs() {
 fn fs_must_agree_with_time_column() {
     let text = "time,force\n0,1\n0.001,2\n0.002,3\n";
     assert!(parse_fs(text, 1000.0).is_ok());
-    let (p, msg) = problem(parse_fs(text, 2048.0));
+    let (p, msg) = parse_problem("hit1.csv", parse_fs(text, 2048.0));
     assert!(matches!(p, Problem::FsMismatch { .. }), "{msg}");
     assert!(msg.contains("fs_hz = 2048"), "{msg}");
 }
@@ -144,7 +127,7 @@ fn coarse_but_exact_time_column() {
 #[test]
 fn empty_file() {
     for text in ["", "\n\n  \n", "\u{feff}"] {
-        let (p, msg) = problem(parse(text));
+        let (p, msg) = parse_problem("hit1.csv", parse(text));
         assert_eq!(p, Problem::EmptyFile);
         assert!(msg.contains("empty"), "{msg}");
     }
@@ -152,14 +135,14 @@ fn empty_file() {
 
 #[test]
 fn header_only() {
-    let (p, msg) = problem(parse("time,force,acc1\n\n"));
+    let (p, msg) = parse_problem("hit1.csv", parse("time,force,acc1\n\n"));
     assert_eq!(p, Problem::HeaderOnly);
     assert_eq!(msg, "hit1.csv: line 1: header row but no data rows");
 }
 
 #[test]
 fn non_numeric_cell() {
-    let (p, msg) = problem(parse("time,force,acc1\n0,1,2\n0.1,abc,2\n"));
+    let (p, msg) = parse_problem("hit1.csv", parse("time,force,acc1\n0,1,2\n0.1,abc,2\n"));
     assert_eq!(p, Problem::NonNumeric { text: "abc".into() });
     assert_eq!(
         msg,
@@ -167,16 +150,16 @@ fn non_numeric_cell() {
     );
     // A decimal comma is not accepted when comma is the delimiter: it
     // splits the cell, which shows as a ragged row.
-    let (p, _) = problem(parse("time,force\n0,1,5\n"));
+    let (p, _) = parse_problem("hit1.csv", parse("time,force\n0,1,5\n"));
     assert!(matches!(p, Problem::RaggedRow { .. }));
     // Thousands separators are not numbers.
-    let (p, msg) = problem(parse("time;force\n0;1.000,5\n"));
+    let (p, msg) = parse_problem("hit1.csv", parse("time;force\n0;1.000,5\n"));
     assert!(matches!(p, Problem::NonNumeric { .. }), "{msg}");
 }
 
 #[test]
 fn empty_cell() {
-    let (p, msg) = problem(parse("time,force,acc1\n0,1,2\n0.1,,2\n"));
+    let (p, msg) = parse_problem("hit1.csv", parse("time,force,acc1\n0,1,2\n0.1,,2\n"));
     assert_eq!(p, Problem::EmptyCell);
     assert!(msg.contains("line 3, column 2 (force)"), "{msg}");
 }
@@ -185,19 +168,19 @@ fn empty_cell() {
 fn nan_and_infinity() {
     for bad in ["NaN", "nan", "inf", "-Infinity", "1e999"] {
         let text = format!("time,force,acc1\n0,1,2\n0.1,3,{bad}\n");
-        let (p, msg) = problem(parse(&text));
+        let (p, msg) = parse_problem("hit1.csv", parse(&text));
         assert_eq!(p, Problem::NonFinite { text: bad.into() }, "{msg}");
         assert!(msg.contains("line 3, column 3 (acc1)"), "{msg}");
         assert!(msg.contains("NaN or infinite"), "{msg}");
     }
-    let (p, _) = problem(parse("time,force\nNaN,1\n1,2\n"));
+    let (p, _) = parse_problem("hit1.csv", parse("time,force\nNaN,1\n1,2\n"));
     assert!(matches!(p, Problem::NonFinite { .. }));
 }
 
 #[test]
 fn non_uniform_time() {
     let text = "time,force\n0,1\n0.001,1\n0.002,1\n0.004,1\n0.005,1\n0.006,1\n";
-    let (p, msg) = problem(parse(text));
+    let (p, msg) = parse_problem("hit1.csv", parse(text));
     assert!(matches!(p, Problem::NonUniformStep { .. }), "{msg}");
     assert!(msg.contains("line 5, column 1 (time)"), "{msg}");
     assert!(msg.contains("not uniformly sampled"), "{msg}");
@@ -205,17 +188,17 @@ fn non_uniform_time() {
 
 #[test]
 fn decreasing_and_repeated_time() {
-    let (p, msg) = problem(parse("time,force\n0,1\n0.002,1\n0.001,1\n"));
+    let (p, msg) = parse_problem("hit1.csv", parse("time,force\n0,1\n0.002,1\n0.001,1\n"));
     assert!(matches!(p, Problem::TimeNotIncreasing { .. }));
     assert!(msg.contains("line 4, column 1 (time)"), "{msg}");
     assert!(msg.contains("decreasing"), "{msg}");
-    let (_, msg) = problem(parse("time,force\n0,1\n0.001,1\n0.001,1\n"));
+    let (_, msg) = parse_problem("hit1.csv", parse("time,force\n0,1\n0.001,1\n0.001,1\n"));
     assert!(msg.contains("line 4") && msg.contains("repeated"), "{msg}");
 }
 
 #[test]
 fn ragged_row() {
-    let (p, msg) = problem(parse("time,force,acc1\n0,1,2\n0.1,2\n"));
+    let (p, msg) = parse_problem("hit1.csv", parse("time,force,acc1\n0,1,2\n0.1,2\n"));
     assert_eq!(
         p,
         Problem::RaggedRow {
@@ -231,14 +214,14 @@ fn ragged_row() {
 
 #[test]
 fn no_time_column_and_no_fs() {
-    let (p, msg) = problem(parse("force,acc1\n1,2\n3,4\n"));
+    let (p, msg) = parse_problem("hit1.csv", parse("force,acc1\n1,2\n3,4\n"));
     assert_eq!(p, Problem::NoTimeColumnNoFs);
     assert!(msg.contains("fs_hz"), "{msg}");
 }
 
 #[test]
 fn single_sample_needs_fs() {
-    let (p, _) = problem(parse("time,force\n0.5,1\n"));
+    let (p, _) = parse_problem("hit1.csv", parse("time,force\n0.5,1\n"));
     assert_eq!(p, Problem::SingleSample);
     let r = parse_fs("time,force\n0.5,1\n", 100.0).unwrap();
     assert_eq!((r.start_s, r.dt_s), (0.5, 0.01));
@@ -246,46 +229,52 @@ fn single_sample_needs_fs() {
 
 #[test]
 fn misplaced_time_column_and_bad_names() {
-    let (p, msg) = problem(parse("force,time,acc1\n1,0,2\n"));
+    let (p, msg) = parse_problem("hit1.csv", parse("force,time,acc1\n1,0,2\n"));
     assert_eq!(p, Problem::MisplacedTimeColumn);
     assert!(msg.contains("line 1, column 2 (time)"), "{msg}");
-    let (p, msg) = problem(parse("time,,acc1\n0,1,2\n"));
+    let (p, msg) = parse_problem("hit1.csv", parse("time,,acc1\n0,1,2\n"));
     assert_eq!(p, Problem::EmptyColumnName);
     assert!(msg.contains("column 2"), "{msg}");
-    let (p, msg) = problem(parse("time [h],force\n0,1\n1,2\n"));
+    let (p, msg) = parse_problem("hit1.csv", parse("time [h],force\n0,1\n1,2\n"));
     assert_eq!(p, Problem::UnsupportedTimeUnit { unit: "h".into() });
     assert!(msg.contains("'h'"), "{msg}");
-    let (p, _) = problem(parse("time\n0\n1\n"));
+    let (p, _) = parse_problem("hit1.csv", parse("time\n0\n1\n"));
     assert_eq!(p, Problem::NoChannels);
 }
 
 #[test]
 fn blank_line_inside_data() {
-    let (p, msg) = problem(parse("time,force\n0,1\n\n0.1,2\n"));
+    let (p, msg) = parse_problem("hit1.csv", parse("time,force\n0,1\n\n0.1,2\n"));
     assert_eq!(p, Problem::BlankLine);
     assert!(msg.contains("line 3"), "{msg}");
 }
 
 #[test]
 fn unterminated_quote() {
-    let (p, msg) = problem(parse("time,\"force\n0,1\n"));
+    let (p, msg) = parse_problem("hit1.csv", parse("time,\"force\n0,1\n"));
     assert_eq!(p, Problem::UnterminatedQuote);
     assert!(msg.contains("line 1, column 2"), "{msg}");
 }
 
 #[test]
 fn binary_and_utf16_content() {
-    let (p, _) = problem(parse_record(
-        b"time,force\n0,1\x00\n",
-        Path::new("hit1.csv"),
-        &ReadOptions::default(),
-    ));
+    let (p, _) = parse_problem(
+        "hit1.csv",
+        parse_record(
+            b"time,force\n0,1\x00\n",
+            Path::new("hit1.csv"),
+            &ReadOptions::default(),
+        ),
+    );
     assert_eq!(p, Problem::NotText);
-    let (p, msg) = problem(parse_record(
-        b"\xFF\xFEt\x00i\x00",
-        Path::new("hit1.csv"),
-        &ReadOptions::default(),
-    ));
+    let (p, msg) = parse_problem(
+        "hit1.csv",
+        parse_record(
+            b"\xFF\xFEt\x00i\x00",
+            Path::new("hit1.csv"),
+            &ReadOptions::default(),
+        ),
+    );
     assert_eq!(p, Problem::Utf16);
     assert!(msg.contains("UTF-16"), "{msg}");
 }

@@ -2,11 +2,14 @@
 //! published layout, pyuff, a big-endian binary composed here), round trips
 //! of frameid's writer, and refusals of bad input.
 
+mod common;
+
+use common::{parse_problem, spec};
 use std::path::{Path, PathBuf};
 
 use frameid::records::{
-    Channel, ChannelSpec, Format, Problem, ReadOptions, RecordError, RecordFile, Uff58Encoding,
-    parse_record, read_record, write_uff58, write_uff58_as,
+    Channel, Format, Problem, ReadOptions, RecordError, RecordFile, Uff58Encoding, parse_record,
+    read_record, write_uff58, write_uff58_as,
 };
 
 fn data(name: &str) -> PathBuf {
@@ -21,25 +24,6 @@ fn read(name: &str) -> RecordFile {
 
 fn parse(content: &[u8]) -> Result<RecordFile, RecordError> {
     parse_record(content, Path::new("hit.uff"), &ReadOptions::default())
-}
-
-fn spec(s: &str) -> ChannelSpec {
-    s.parse().unwrap()
-}
-
-fn problem(r: Result<RecordFile, RecordError>) -> (Problem, String) {
-    match r {
-        Err(e @ RecordError::Parse { .. }) => {
-            let msg = e.to_string();
-            assert!(msg.starts_with("hit.uff: "), "{msg}");
-            let RecordError::Parse { problem, .. } = e else {
-                unreachable!()
-            };
-            (problem, msg)
-        }
-        Err(e) => panic!("not a parse error: {e}"),
-        Ok(r) => panic!("accepted: {r:?}"),
-    }
 }
 
 fn bits(v: &[f64]) -> Vec<u64> {
@@ -428,25 +412,25 @@ fn truncated_datasets() {
     let text = good();
     let lines: Vec<&str> = text.lines().collect();
     let cut = |n: usize| lines[..n].join("\n") + "\n";
-    let (p, msg) = problem(parse(cut(1).as_bytes()));
+    let (p, msg) = parse_problem("hit.uff", parse(cut(1).as_bytes()));
     assert!(matches!(p, Problem::UffTruncated { .. }));
     assert!(
         msg.contains("dataset 1, line 1") && msg.contains("before the dataset number"),
         "{msg}"
     );
-    let (_, msg) = problem(parse(cut(6).as_bytes()));
+    let (_, msg) = parse_problem("hit.uff", parse(cut(6).as_bytes()));
     assert!(
         msg.contains("truncated") && msg.contains("before record 5 of 11"),
         "{msg}"
     );
-    let (_, msg) = problem(parse(cut(14).as_bytes()));
+    let (_, msg) = parse_problem("hit.uff", parse(cut(14).as_bytes()));
     assert!(
         msg.contains("truncated") && msg.contains("inside the data (4 of 4 values read)"),
         "{msg}"
     );
     // A dataset that closes before its header is complete.
     let short = "    -1\n    58\nacc\nNONE\n    -1\n";
-    let (_, msg) = problem(parse(short.as_bytes()));
+    let (_, msg) = parse_problem("hit.uff", parse(short.as_bytes()));
     assert_eq!(
         msg,
         "hit.uff: dataset 1, line 5: dataset is truncated: its closing '-1' comes before record 3 of 11"
@@ -456,7 +440,10 @@ fn truncated_datasets() {
 #[test]
 fn unsupported_function_type() {
     let rec6 = REC6.replacen("    1", "    4", 1);
-    let (p, msg) = problem(parse(ds58("frf", &rec6, REC7, &[DATA]).as_bytes()));
+    let (p, msg) = parse_problem(
+        "hit.uff",
+        parse(ds58("frf", &rec6, REC7, &[DATA]).as_bytes()),
+    );
     assert_eq!(p, Problem::UffUnsupportedFunction { func_type: 4 });
     assert_eq!(
         msg,
@@ -468,7 +455,7 @@ fn unsupported_function_type() {
 #[test]
 fn bad_record6_fields() {
     let rec6 = "    1       abc    0         0 NONE               3   1 NONE               3   1";
-    let (p, msg) = problem(parse(ds58("a", rec6, REC7, &[DATA]).as_bytes()));
+    let (p, msg) = parse_problem("hit.uff", parse(ds58("a", rec6, REC7, &[DATA]).as_bytes()));
     assert!(matches!(p, Problem::UffBadField { .. }));
     assert!(
         msg.contains("line 8, record 6 field 2 (function identification number, columns 6-15)")
@@ -476,7 +463,7 @@ fn bad_record6_fields() {
         "{msg}"
     );
     let rec6 = REC6.replacen("   3   1 NONE", "   3   9 NONE", 1);
-    let (_, msg) = problem(parse(ds58("a", &rec6, REC7, &[DATA]).as_bytes()));
+    let (_, msg) = parse_problem("hit.uff", parse(ds58("a", &rec6, REC7, &[DATA]).as_bytes()));
     assert!(
         msg.contains("record 6 field 7 (response direction)") && msg.contains("-6..6"),
         "{msg}"
@@ -508,7 +495,7 @@ fn bad_record7_fields() {
         ),
     ];
     for (rec7, want) in cases {
-        let (p, msg) = problem(parse(ds58("a", REC6, rec7, &[DATA]).as_bytes()));
+        let (p, msg) = parse_problem("hit.uff", parse(ds58("a", REC6, rec7, &[DATA]).as_bytes()));
         assert!(matches!(p, Problem::UffBadField { .. }), "{msg}");
         assert!(msg.contains("dataset 1, line 9, "), "{msg}");
         assert!(msg.contains(want), "{msg}\nwanted: {want}");
@@ -519,7 +506,7 @@ fn bad_record7_fields() {
 fn unsupported_ordinate_type() {
     for (t, name) in [(6, "complex double"), (5, "complex single"), (3, "unknown")] {
         let rec7 = REC7.replacen("         2", &format!("{t:>10}"), 1);
-        let (p, msg) = problem(parse(ds58("a", REC6, &rec7, &[DATA]).as_bytes()));
+        let (p, msg) = parse_problem("hit.uff", parse(ds58("a", REC6, &rec7, &[DATA]).as_bytes()));
         assert_eq!(p, Problem::UffUnsupportedOrdinate { ord_type: t });
         assert!(
             msg.contains("line 9, record 7 field 1") && msg.contains(name),
@@ -531,7 +518,7 @@ fn unsupported_ordinate_type() {
 #[test]
 fn data_count_mismatch() {
     let rec7 = REC7.replacen("         4", "         5", 1);
-    let (p, msg) = problem(parse(ds58("a", REC6, &rec7, &[DATA]).as_bytes()));
+    let (p, msg) = parse_problem("hit.uff", parse(ds58("a", REC6, &rec7, &[DATA]).as_bytes()));
     assert_eq!(
         p,
         Problem::UffCountMismatch {
@@ -548,15 +535,18 @@ fn data_count_mismatch() {
 
 #[test]
 fn bad_data_values() {
-    let (p, msg) = problem(parse(
-        ds58(
-            "a",
-            REC6,
-            REC7,
-            &["  1.00000E+00  2.0000xE+00  3.00000E+00  4.00000E+00"],
-        )
-        .as_bytes(),
-    ));
+    let (p, msg) = parse_problem(
+        "hit.uff",
+        parse(
+            ds58(
+                "a",
+                REC6,
+                REC7,
+                &["  1.00000E+00  2.0000xE+00  3.00000E+00  4.00000E+00"],
+            )
+            .as_bytes(),
+        ),
+    );
     assert_eq!(
         p,
         Problem::NonNumeric {
@@ -564,15 +554,18 @@ fn bad_data_values() {
         }
     );
     assert!(msg.contains("line 14, value 2 on the line"), "{msg}");
-    let (p, msg) = problem(parse(
-        ds58(
-            "a",
-            REC6,
-            REC7,
-            &["  1.00000E+00          NaN  3.00000E+00  4.00000E+00"],
-        )
-        .as_bytes(),
-    ));
+    let (p, msg) = parse_problem(
+        "hit.uff",
+        parse(
+            ds58(
+                "a",
+                REC6,
+                REC7,
+                &["  1.00000E+00          NaN  3.00000E+00  4.00000E+00"],
+            )
+            .as_bytes(),
+        ),
+    );
     assert!(matches!(p, Problem::NonFinite { .. }));
     assert!(
         msg.contains("line 14, value 2 on the line") && msg.contains("NaN or infinite"),
@@ -590,7 +583,7 @@ fn datasets_of_one_file_must_agree() {
             &three,
             &["  1.00000E+00  2.00000E+00  3.00000E+00"],
         );
-    let (p, msg) = problem(parse(text.as_bytes()));
+    let (p, msg) = parse_problem("hit.uff", parse(text.as_bytes()));
     assert!(matches!(p, Problem::UffDatasetMismatch { .. }));
     assert!(
         msg.contains(
@@ -600,14 +593,14 @@ fn datasets_of_one_file_must_agree() {
     );
     let slow = REC7.replacen("1.00000E-03", "2.00000E-03", 1);
     let text = good() + &ds58("b", REC6, &slow, &[DATA]);
-    let (_, msg) = problem(parse(text.as_bytes()));
+    let (_, msg) = parse_problem("hit.uff", parse(text.as_bytes()));
     assert!(
         msg.contains("the sampling interval is 0.002 s, but dataset 1 has 0.001 s"),
         "{msg}"
     );
     let late = REC7.replacen("0.00000E+00  1.00000E-03", "5.00000E-01  1.00000E-03", 1);
     let text = good() + &ds58("b", REC6, &late, &[DATA]);
-    let (_, msg) = problem(parse(text.as_bytes()));
+    let (_, msg) = parse_problem("hit.uff", parse(text.as_bytes()));
     assert!(msg.contains("the start time is 0.5 s"), "{msg}");
 }
 
@@ -616,20 +609,23 @@ fn other_datasets_are_skipped_but_needed_58() {
     let d151 = "    -1\n   151\nmodel\ndescription\nprogram\n    -1\n";
     let r = parse((d151.to_string() + &good() + d151).as_bytes()).unwrap();
     assert_eq!(r.channels.len(), 1);
-    let (p, msg) = problem(parse(d151.as_bytes()));
+    let (p, msg) = parse_problem("hit.uff", parse(d151.as_bytes()));
     assert_eq!(p, Problem::UffNoDataset58 { found: vec![151] });
     assert!(
         msg.contains("no dataset 58") && msg.contains("datasets found: 151"),
         "{msg}"
     );
-    let (p, _) = problem(parse((d151.to_string() + "    -1\n  2411\n").as_bytes()));
+    let (p, _) = parse_problem(
+        "hit.uff",
+        parse((d151.to_string() + "    -1\n  2411\n").as_bytes()),
+    );
     assert!(matches!(p, Problem::UffTruncated { .. }));
 }
 
 #[test]
 fn garbage_between_datasets() {
     let text = good() + "hello\n" + &good();
-    let (p, msg) = problem(parse(text.as_bytes()));
+    let (p, msg) = parse_problem("hit.uff", parse(text.as_bytes()));
     assert_eq!(
         p,
         Problem::UffExpectedDelimiter {
@@ -646,7 +642,7 @@ fn abscissa_must_be_time() {
         "        18    0    0    0 Frequency            Hz  ",
         1,
     );
-    let (_, msg) = problem(parse(text.as_bytes()));
+    let (_, msg) = parse_problem("hit.uff", parse(text.as_bytes()));
     assert!(
         msg.contains("line 10, record 8 field 6 (abscissa units label)") && msg.contains("'Hz'"),
         "{msg}"
@@ -701,7 +697,7 @@ fn binary_layout() {
 #[test]
 fn binary_byte_count_mismatch() {
     let b = replace(&binary_file(), "          80     0", "          72     0");
-    let (p, msg) = problem(parse(&b));
+    let (p, msg) = parse_problem("hit.uff", parse(&b));
     assert!(matches!(
         p,
         Problem::UffByteCountMismatch {
@@ -719,30 +715,30 @@ fn binary_byte_count_mismatch() {
 #[test]
 fn binary_truncated() {
     let b = binary_file();
-    let (p, msg) = problem(parse(&b[..b.len() - 20]));
+    let (p, msg) = parse_problem("hit.uff", parse(&b[..b.len() - 20]));
     assert!(matches!(p, Problem::UffTruncated { .. }));
     assert!(
         msg.contains("inside the binary data: 80 bytes declared, 67 present"),
         "{msg}"
     );
-    let (_, msg) = problem(parse(&b[..b.len() - 7]));
+    let (_, msg) = parse_problem("hit.uff", parse(&b[..b.len() - 7]));
     assert!(msg.contains("before the closing '-1'"), "{msg}");
 }
 
 #[test]
 fn binary_unsupported_layouts() {
     let b = replace(&binary_file(), "58b     1     2", "58b     1     1");
-    let (p, msg) = problem(parse(&b));
+    let (p, msg) = parse_problem("hit.uff", parse(&b));
     assert!(matches!(p, Problem::UffUnsupportedBinary { .. }));
     assert!(
         msg.contains("binary header field 4 (floating point format)") && msg.contains("DEC VMS"),
         "{msg}"
     );
     let b = replace(&binary_file(), "58b     1     2", "58b     3     2");
-    let (_, msg) = problem(parse(&b));
+    let (_, msg) = parse_problem("hit.uff", parse(&b));
     assert!(msg.contains("byte ordering 3"), "{msg}");
     let b = replace(&binary_file(), "          11", "          12");
-    let (_, msg) = problem(parse(&b));
+    let (_, msg) = parse_problem("hit.uff", parse(&b));
     assert!(
         msg.contains("number of ASCII lines") && msg.contains("11 ASCII header records"),
         "{msg}"
@@ -754,7 +750,7 @@ fn binary_nan_value() {
     let mut b = binary_file();
     let n = b.len();
     b[n - 23..n - 15].copy_from_slice(&f64::NAN.to_le_bytes());
-    let (p, msg) = problem(parse(&b));
+    let (p, msg) = parse_problem("hit.uff", parse(&b));
     assert!(matches!(p, Problem::NonFinite { .. }));
     assert!(
         msg.contains("binary value 9 (byte 65 of the data)"),

@@ -344,15 +344,6 @@ fn spread(values: &[f64]) -> f64 {
 }
 
 fn scenarios() -> Vec<Scenario> {
-    let with_dashpot = |mut frame: Frame, value: f64| {
-        let n = frame.dofs();
-        let (a, b) = (n - 2, n - 1);
-        frame.damping[(a, a)] += value;
-        frame.damping[(b, b)] += value;
-        frame.damping[(a, b)] -= value;
-        frame.damping[(b, a)] -= value;
-        frame
-    };
     let shear3 = Parametrization::ShearFrame {
         dashpots: vec![
             Dashpot::between(Node::Ground, Node::Dof(1)),
@@ -367,7 +358,7 @@ fn scenarios() -> Vec<Scenario> {
         },
         Scenario {
             name: "2 storeys, extra dashpot, full",
-            frame: with_dashpot(frame2(), 0.2),
+            frame: with_storey_dashpot(frame2(), 0.2),
             parametrization: Parametrization::Full,
         },
         Scenario {
@@ -377,7 +368,7 @@ fn scenarios() -> Vec<Scenario> {
         },
         Scenario {
             name: "3 storeys, extra dashpot, shear frame",
-            frame: with_dashpot(frame3(), 0.5),
+            frame: with_storey_dashpot(frame3(), 0.5),
             parametrization: shear3,
         },
     ]

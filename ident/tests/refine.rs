@@ -18,17 +18,6 @@ fn hits(rng: &mut ChaCha8Rng, count: usize, pre: usize) -> Vec<Hit> {
     (0..count).map(|_| Hit::random(rng, pre)).collect()
 }
 
-/// The frame with an extra dashpot on its top storey: non-proportional damping.
-fn with_storey_dashpot(mut frame: Frame, value: f64) -> Frame {
-    let n = frame.dofs();
-    let (a, b) = (n - 2, n - 1);
-    frame.damping[(a, a)] += value;
-    frame.damping[(b, b)] += value;
-    frame.damping[(a, b)] -= value;
-    frame.damping[(b, a)] -= value;
-    frame
-}
-
 fn shear3() -> Parametrization {
     // Rayleigh damping alpha M needs ground dashpots at DOFs 1 and 2.
     Parametrization::ShearFrame {

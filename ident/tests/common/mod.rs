@@ -345,3 +345,14 @@ pub fn perturbed(frame: &Frame, rng: &mut ChaCha8Rng) -> ident::refine::SecondOr
         &frame.damping * 3.0,
     )
 }
+
+/// The frame with an extra dashpot on its top storey: non-proportional damping.
+pub fn with_storey_dashpot(mut frame: Frame, value: f64) -> Frame {
+    let n = frame.dofs();
+    let (a, b) = (n - 2, n - 1);
+    frame.damping[(a, a)] += value;
+    frame.damping[(b, b)] += value;
+    frame.damping[(a, b)] -= value;
+    frame.damping[(b, a)] -= value;
+    frame
+}
