@@ -104,6 +104,24 @@ impl<'a> Cursor<'a> {
     }
 }
 
+/// The next non-blank line must be the closing `-1` of a dataset; `end`
+/// and `missing` describe a file that ends before it.
+fn expect_delimiter(
+    cur: &mut Cursor<'_>,
+    ctx: &Ctx<'_>,
+    end: usize,
+    missing: impl Into<String>,
+) -> Result<(), RecordError> {
+    match cur.next_nonblank() {
+        Some((_, l)) if is_delimiter(l) => Ok(()),
+        Some((n, l)) => Err(ctx.err(
+            ctx.at_line(n),
+            Problem::UffExpectedDelimiter { found: excerpt(l) },
+        )),
+        None => Err(ctx.truncated(end, missing)),
+    }
+}
+
 fn is_delimiter(line: &[u8]) -> bool {
     line.trim_ascii() == b"-1"
 }
@@ -736,21 +754,13 @@ fn read_dataset58(
                 }
                 values.push(v);
             }
-            match cur.next_nonblank() {
-                Some((_, l)) if is_delimiter(l) => {}
-                Some((n, l)) => {
-                    return Err(ctx.err(
-                        ctx.at_line(n),
-                        Problem::UffExpectedDelimiter { found: excerpt(l) },
-                    ));
-                }
-                None => {
-                    return Err(ctx.truncated(
-                        cur.line.saturating_sub(1),
-                        "after the binary data, before the closing '-1'",
-                    ));
-                }
-            }
+            let end = cur.line.saturating_sub(1);
+            expect_delimiter(
+                cur,
+                ctx,
+                end,
+                "after the binary data, before the closing '-1'",
+            )?;
         }
         None => {
             let widths = data_widths(r7.ord_type, r7.even);
@@ -925,21 +935,12 @@ pub fn parse_uff58(
                         format!("inside the binary data of dataset type {number}"),
                     ));
                 }
-                match cur.next_nonblank() {
-                    Some((_, l)) if is_delimiter(l) => {}
-                    Some((n, l)) => {
-                        return Err(ctx.err(
-                            ctx.at_line(n),
-                            Problem::UffExpectedDelimiter { found: excerpt(l) },
-                        ));
-                    }
-                    None => {
-                        return Err(ctx.truncated(
-                            hn,
-                            format!("before the closing '-1' of dataset type {number}"),
-                        ));
-                    }
-                }
+                expect_delimiter(
+                    &mut cur,
+                    &ctx,
+                    hn,
+                    format!("before the closing '-1' of dataset type {number}"),
+                )?;
             }
             None => loop {
                 match cur.next_line() {
