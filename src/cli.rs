@@ -5,6 +5,8 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+use crate::scenario::ParametrizationSetting;
+
 /// frameid: simulate hammer tests on shear frames, identify M, K and R from
 /// records, and measure how well they are recovered.
 #[derive(Debug, Parser)]
@@ -140,15 +142,8 @@ pub struct IdentifyArgs {
     #[arg(long, conflicts_with = "realization")]
     pub refine: bool,
     /// Parameters of the refinement: symmetric M, K, damping (`full`) or one mass per floor and one spring and dashpot per storey plus ground dashpots (`shear-frame`)
-    #[arg(long, value_enum, default_value_t = ParametrizationArg::Full, requires = "refine")]
-    pub parametrization: ParametrizationArg,
-}
-
-/// Physical parametrization of `--refine`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ParametrizationArg {
-    Full,
-    ShearFrame,
+    #[arg(long, value_enum, default_value_t = ParametrizationSetting::Full, requires = "refine")]
+    pub parametrization: ParametrizationSetting,
 }
 
 #[derive(Debug, Args)]

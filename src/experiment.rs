@@ -138,9 +138,11 @@ pub fn score(
         None => {}
         Some(Ok(r)) => v.extend(score_refinement(r, truth)),
         Some(Err(_)) => {
+            // Every refined score NaN, then `refine_failed` = 1 and no
+            // iteration count (the last two columns).
             let n = truth.dofs();
-            let count = score_names(n, true).len() - score_names(n, false).len();
-            v.extend(std::iter::repeat_n(f64::NAN, count - 2));
+            let refined = score_names(n, true).len() - score_names(n, false).len();
+            v.extend(std::iter::repeat_n(f64::NAN, refined - 2));
             v.extend([1.0, f64::NAN]);
         }
     }

@@ -53,8 +53,9 @@ pub struct IdentificationSettings {
     pub parametrization: ParametrizationSetting,
 }
 
-/// Physical parametrization of the refinement, as written in scenario files.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+/// Physical parametrization of the refinement, as written in scenario files
+/// and on the command line (`--parametrization`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum ParametrizationSetting {
     /// Symmetric M, K and damping (every upper-triangle entry).
@@ -64,6 +65,21 @@ pub enum ParametrizationSetting {
     /// dashpot from every floor above the first to the ground (so that
     /// Rayleigh damping is representable).
     ShearFrame,
+}
+
+impl ParametrizationSetting {
+    /// The refinement's parametrization for `dofs` floors.
+    pub fn parametrization(self, dofs: usize) -> ident::refine::Parametrization {
+        use ident::refine::{Dashpot, Node, Parametrization};
+        match self {
+            ParametrizationSetting::Full => Parametrization::Full,
+            ParametrizationSetting::ShearFrame => Parametrization::ShearFrame {
+                dashpots: (1..dofs)
+                    .map(|i| Dashpot::between(Node::Ground, Node::Dof(i)))
+                    .collect(),
+            },
+        }
+    }
 }
 
 /// Intersample assumption as written in scenario files.
@@ -188,6 +204,16 @@ pub enum StructureSpec {
         storeys: Vec<Storey>,
         floors: Vec<Floor>,
     },
+}
+
+impl StructureSpec {
+    /// Number of floors (DOFs) as written; [`Scenario::model`] checks it.
+    pub fn dofs(&self) -> usize {
+        match self {
+            StructureSpec::Matrices { mass, .. } => mass.len(),
+            StructureSpec::ShearFrame { floors, .. } => floors.len(),
+        }
+    }
 }
 
 /// Why a scenario cannot be used.
@@ -328,18 +354,12 @@ impl Scenario {
     /// the scenario's parametrization, the hit floor as input, noise levels
     /// estimated from the residuals.
     pub fn refiner(&self) -> ident::refine::Refiner {
-        use ident::refine::{Dashpot, Node, Parametrization};
-        let n = self.model().map(|m| m.dofs()).unwrap_or(1);
-        let parametrization = match self.identification.parametrization {
-            ParametrizationSetting::Full => Parametrization::Full,
-            ParametrizationSetting::ShearFrame => Parametrization::ShearFrame {
-                dashpots: (1..n)
-                    .map(|i| Dashpot::between(Node::Ground, Node::Dof(i)))
-                    .collect(),
-            },
-        };
         ident::refine::Refiner::default()
-            .parametrization(parametrization)
+            .parametrization(
+                self.identification
+                    .parametrization
+                    .parametrization(self.structure.dofs()),
+            )
             .intersample(self.intersample())
             .input_dofs(vec![self.campaign.hammer.floor - 1])
     }

@@ -4,12 +4,12 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow, bail};
-use ident::refine::{Dashpot, Node, Parametrization, Refinement, Refiner};
+use ident::refine::{Refinement, Refiner};
 use ident::{Identification, Identifier, ModelOrder, ObserverOrder, Record};
 use nalgebra::DMatrix;
 use serde::Serialize;
 
-use crate::cli::{IdentifyArgs, ParametrizationArg};
+use crate::cli::IdentifyArgs;
 use crate::format::{matrix, sig};
 use crate::quality::{self, HitQuality, QualitySettings};
 use crate::records::{self, ChannelSpec, ReadOptions, RecordFile};
@@ -320,17 +320,8 @@ fn refine(
             c.input_names.join(", ")
         );
     }
-    let n = c.output_names.len();
-    let parametrization = match args.parametrization {
-        ParametrizationArg::Full => Parametrization::Full,
-        ParametrizationArg::ShearFrame => Parametrization::ShearFrame {
-            dashpots: (1..n)
-                .map(|i| Dashpot::between(Node::Ground, Node::Dof(i)))
-                .collect(),
-        },
-    };
     let refiner = Refiner::default()
-        .parametrization(parametrization)
+        .parametrization(args.parametrization.parametrization(c.output_names.len()))
         .intersample(args.intersample.into())
         .input_dofs(vec![collocated.0]);
     let r = refiner
