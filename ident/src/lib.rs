@@ -68,6 +68,7 @@
 //! ```
 
 pub mod era;
+pub mod frf;
 pub mod linalg;
 pub mod mkr;
 pub mod modal;
@@ -81,6 +82,7 @@ pub mod statespace;
 #[cfg(test)]
 mod testutil;
 pub use era::{Correlation, Era, EraError, EraParams, ModelOrder};
+pub use frf::{Frf, FrfError, FrfQuantity};
 pub use mkr::{CollocatedPair, Mkr, MkrError, MkrParams, PolarityPolicy};
 pub use modal::{Indicators, Intersample, ModalModel, ModalParams, Mode, StructuralRule};
 pub use okid::{ObserverOrder, Okid, OkidError, OkidParams};
