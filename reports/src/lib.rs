@@ -49,6 +49,7 @@ mod figures;
 mod format;
 mod html;
 pub mod model;
+mod svg;
 mod validate;
 
 use std::fs;
