@@ -5,9 +5,9 @@
 //! To make a chart testable, every logical part (title, axes, axis labels,
 //! each data layer, the legend and its entries) is wrapped in a `<g>` with a
 //! class and `data-*` attributes. The drawing backend is this crate's
-//! [`SvgCanvas`](crate::svg::SvgCanvas): group boundaries are plotters
-//! elements drawn between the parts, and the canvas writes the `<g>`
-//! elements, the root `<svg>` and its `<title>` itself (see [`crate::svg`]).
+//! [`SvgCanvas`]: group boundaries are plotters elements drawn between the
+//! parts, and the canvas writes the `<g>` elements, the root `<svg>` and its
+//! `<title>` itself (see [`crate::svg`]).
 //!
 //! Data are mapped to pixels here rather than by plotters so that long
 //! records can be reduced to a min/max envelope per pixel column (peaks
