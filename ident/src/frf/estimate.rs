@@ -70,11 +70,14 @@
 //! * [`Estimator::H1`] `= Gyx Gxx^-1`: least squares with noise on the
 //!   responses only. Unbiased by output noise; uncorrelated input noise of
 //!   auto-spectrum `Gnn` biases it (one reference) by the real factor
-//!   `Gxx / (Gxx + Gnn)`, low at antiresonances and wherever the force is weak.
+//!   `Gxx / (Gxx + Gnn)`: low wherever the force is weak (force drop-out at
+//!   resonances in shaker tests, above a hammer tip's bandwidth).
 //! * [`Estimator::H2`]: for one reference `H2_i = Gyy_ii / Gxy_i` with
 //!   `Gxy_i = conj(Gyx_i)`: unbiased by input noise, biased high by output
-//!   noise (`H (1 + Gnn / Gyy_signal)`), the better estimate at resonances.
-//!   For `r > 1` references it is defined as in the literature (Allemang),
+//!   noise (`H (1 + Gnn / Gyy_signal)`), which matters where the response is
+//!   weak (antiresonances); the better estimate at resonances.
+//!   For `r > 1` references it is defined as in the modal-testing literature
+//!   (e.g. Allemang's treatment of multiple-input FRF estimation),
 //!   `H2 = Gyy Gxy^-1` with the full `m x m` response cross-spectral matrix,
 //!   which needs `Gxy` (`r x m`) to be square: only with as many responses as
 //!   references. Any other shape is ill-posed (a pseudo-inverse would make each
@@ -106,7 +109,7 @@
 //!   It equals the ordinary coherence for one reference.
 //! * Coherences are clamped to `[0, 1]` (round-off can exceed 1 by a few ulps);
 //!   a response with no power at a line (`Gyy_ii = 0`) has coherence 0 there
-//!   (nothing about the structure is measured) and all estimators give 0.
+//!   (nothing about the structure is measured) and every estimator gives 0.
 //!
 //! # Averaging
 //!
@@ -122,8 +125,8 @@
 //!     outside the pulse);
 //!   - an [`ExponentialWindow`] `w(t) = exp(-t / tau)`, `t = n dt_s` from the
 //!     first sample of the record, on every channel (responses and forces).
-//!     It makes a response that has not decayed within the record
-//!     leakage-free, at the price of added damping: applied to both input and
+//!     It reduces the leakage of a response that has not decayed within the
+//!     record, at the price of added damping: applied to both input and
 //!     output, the windowed records are related exactly by the FRF of the
 //!     same system with every pole shifted by `-1 / tau`, i.e. a mode of
 //!     natural frequency `w_n` and damping ratio `xi` appears with damping
@@ -673,6 +676,10 @@ impl CrossSpectra {
 
     /// H2 per line: `Gyy_ii / conj(Gyx_i)` for one reference,
     /// `Gyy Gxy^-1` for as many responses as references (see the module docs).
+    ///
+    /// Panics if several references and as many responses come without
+    /// [`output_cross`](Self::output_cross) (spectra not built by
+    /// [`FrfParams::estimate`]): a shape contract, not a data error.
     pub fn h2(&self) -> Result<Vec<DMatrix<C64>>, FrfEstimateError> {
         let (m, r) = (self.outputs(), self.references());
         if r > 1 && m != r {
