@@ -24,6 +24,7 @@
 # root, no packages, or a daemon does not come up: its log is printed).
 set -euo pipefail
 
+PATH=$PATH:/usr/sbin:/sbin  # the daemons and mungekey live in sbin
 repo=$(cd "$(dirname "$0")/../.." && pwd)
 cd "$repo"
 
@@ -35,8 +36,9 @@ SCENARIO=scenarios/paper-case1.toml
 
 t0=$(date +%s)
 say() { echo "slurm-test [$(($(date +%s) - t0)) s]: $*"; }
-fail() { echo "slurm-test: FAILED: $*" >&2; exit 1; }
-cannot() { echo "slurm-test: CANNOT RUN SLURM HERE: $*" >&2; exit 77; }
+verdict=
+fail() { verdict="FAILED: $*"; echo "slurm-test: $verdict" >&2; exit 1; }
+cannot() { verdict="CANNOT RUN SLURM HERE: $*"; echo "slurm-test: $verdict" >&2; exit 77; }
 
 # --- packages -------------------------------------------------------------
 [ "$(id -u)" = 0 ] || cannot "needs root (to install packages and run slurmd)"
@@ -45,9 +47,11 @@ if ! command -v slurmctld >/dev/null || ! command -v slurmd >/dev/null ||
     command -v apt-get >/dev/null || cannot "Slurm is not installed and there is no apt-get"
     say "installing slurmctld slurmd slurm-client munge"
     export DEBIAN_FRONTEND=noninteractive
+    apt_log=$(mktemp)
     { apt-get update -qq && apt-get install -y -qq --no-install-recommends \
-        slurmctld slurmd slurm-client munge; } >/dev/null ||
-        cannot "apt-get install slurmctld slurmd slurm-client munge failed"
+        slurmctld slurmd slurm-client munge; } >"$apt_log" 2>&1 ||
+        { cat "$apt_log" >&2; rm -f "$apt_log"; cannot "apt-get install slurmctld slurmd slurm-client munge failed"; }
+    rm -f "$apt_log"
 fi
 say "$(slurmd -V)"
 
@@ -90,17 +94,22 @@ subst() { # file, sed expression, what
 subst "$tmp/job.sbatch" "s/^#SBATCH --cpus-per-task=[0-9]+$/#SBATCH --cpus-per-task=$CPUS/" "--cpus-per-task"
 subst "$tmp/job.sbatch" "s/ --noise [0-9.,]+ --trials [0-9]+ / --noise $NOISE --trials $TRIALS /" "--noise and --trials"
 cp "$tmp/job.sbatch" "$work/sweep.sbatch"
+# shellcheck disable=SC2016 # $jobid expands in submit.sh, where the README sets it
+echo 'echo "array job: $jobid"' >>"$tmp/submit.sh"
 cp -r scenarios "$work/"
 say "job script (README's, workload substituted):"
 sed 's/^/    /' "$work/sweep.sbatch"
 
 # --- daemons --------------------------------------------------------------
-pids=()
+pids=()  # the daemons this script started, and their names
+names=()
 cleanup() {
     local status=$?
     set +e
-    if [ -n "${SLURM_CONF:-}" ] && [ -f "$SLURM_CONF" ]; then
-        scancel --user=root >/dev/null 2>&1
+    # Cancel what is left of the jobs while the controller is up (this
+    # controller has only this script's jobs).
+    if [ -n "${ctld_pid:-}" ] && kill -0 "$ctld_pid" 2>/dev/null; then
+        timeout 15 scancel --user=root >/dev/null 2>&1
         sleep 1
     fi
     # Stop only the daemons this script started, newest first.
@@ -114,6 +123,7 @@ cleanup() {
             echo "----- ${f#"$tmp"/} (last 30 lines)" >&2
             tail -n 30 "$f" >&2
         done
+        echo "slurm-test: ${verdict:-exit status $status} (logs above)" >&2
     fi
     if [ "${FRAMEID_SLURM_KEEP:-0}" = 1 ]; then
         echo "slurm-test: kept $tmp" >&2
@@ -144,6 +154,7 @@ munged --foreground --key-file="$tmp/munge-key/munge.key" \
     --seed-file="$tmp/munge-key/seed" --log-file="$tmp/slurm/log/munged.log" \
     >"$tmp/slurm/log/munged.out" 2>&1 &
 pids+=($!)
+names+=(munged)
 for _ in $(seq 50); do [ -S "$tmp/munge-run/munge.socket" ] && break; sleep 0.1; done
 munge --socket="$tmp/munge-run/munge.socket" --no-input |
     unmunge --socket="$tmp/munge-run/munge.socket" >/dev/null ||
@@ -178,7 +189,6 @@ JobAcctGatherType=jobacct_gather/none
 AccountingStorageType=accounting_storage/none
 JobCompType=jobcomp/none
 SchedulerType=sched/backfill
-SchedulerParameters=kill_invalid_depend
 SelectType=select/cons_tres
 SelectTypeParameters=CR_Core
 ReturnToService=2
@@ -189,14 +199,17 @@ CONF
 say "slurmctld on port $ctld_port, slurmd on $slurmd_port: $topology"
 slurmctld -D -i >"$tmp/slurm/log/slurmctld.out" 2>&1 &
 pids+=($!)
+names+=(slurmctld)
+ctld_pid=$!
 slurmd -D -N localhost >"$tmp/slurm/log/slurmd.out" 2>&1 &
 pids+=($!)
+names+=(slurmd)
 state=
 for _ in $(seq 120); do
     state=$(sinfo --noheader --nodes=localhost --format=%T 2>/dev/null || true)
     [ "$state" = idle ] && break
-    for pid in "${pids[@]}"; do
-        kill -0 "$pid" 2>/dev/null || cannot "a daemon (pid $pid) exited at start-up"
+    for i in "${!pids[@]}"; do
+        kill -0 "${pids[i]}" 2>/dev/null || cannot "${names[i]} exited at start-up (its log is below)"
     done
     sleep 0.5
 done
@@ -209,19 +222,31 @@ submitted=$(timeout 60 bash -eu "$tmp/submit.sh") || fail "the README's submit c
 echo "$submitted" | sed 's/^/    /'
 merge_job=$(echo "$submitted" | sed -n 's/^Submitted batch job \([0-9]*\)$/\1/p' | tail -n 1)
 [ -n "$merge_job" ] || fail "no merge job id in sbatch's output"
+field() { # job, field of scontrol show job
+    { scontrol show job "$1" 2>/dev/null || true; } | grep -o "\b$2=[^ ]*" | head -n 1 | cut -d= -f2- || true
+}
+array_tasks() { # the array's tasks that did not complete, with their exit codes
+    scontrol show job "${array_job:-}" 2>/dev/null |
+        awk '/ArrayTaskId=/ { for (i = 1; i <= NF; i++) if ($i ~ /^ArrayTaskId=/) t = $i }
+             /JobState=/ { for (i = 1; i <= NF; i++) if ($i ~ /^JobState=/) s = $i }
+             /ExitCode=/ { for (i = 1; i <= NF; i++) if ($i ~ /^ExitCode=/) e = $i
+                           if (s != "JobState=COMPLETED") printf "%s %s %s; ", t, s, e }'
+}
+array_job=$(echo "$submitted" | sed -n 's/^array job: \([0-9]*\)$/\1/p')
 deadline=$(($(date +%s) + TIMEOUT))
 while :; do
-    job_state=$(scontrol show job "$merge_job" | sed -n 's/.*JobState=\([A-Z_]*\).*/\1/p')
+    job_state=$(field "$merge_job" JobState)
+    reason=$(field "$merge_job" Reason)
     case "$job_state" in
     COMPLETED) break ;;
-    PENDING | CONFIGURING | RUNNING | COMPLETING) ;;
-    *)
-        squeue --all 2>&1 | sed 's/^/    /' >&2
-        fail "the merge job $merge_job ended $job_state ($(scontrol show job "$merge_job" |
-            grep -o 'Reason=[^ ]*\|ExitCode=[^ ]*' | tr '\n' ' '))"
+    PENDING | CONFIGURING | RUNNING | COMPLETING)
+        [ "$reason" != DependencyNeverSatisfied ] ||
+            fail "a shard failed, so the merge job $merge_job can never start: $(array_tasks)"
         ;;
+    *) fail "the merge job $merge_job ended $job_state (Reason=$reason ExitCode=$(field "$merge_job" ExitCode))" ;;
     esac
-    [ "$(date +%s)" -lt "$deadline" ] || fail "the jobs did not finish within $TIMEOUT s"
+    [ "$(date +%s)" -lt "$deadline" ] ||
+        fail "the jobs did not finish within $TIMEOUT s: $(squeue --noheader --all | tr -s ' ' | tr '\n' ';')"
     sleep 1
 done
 say "array and merge jobs completed"
@@ -235,6 +260,18 @@ for f in trials.csv summary.json sweep.json representative.json; do
     [ -f "out/sweep/$f" ] || fail "merge wrote no $f"
     cmp "one/$f" "out/sweep/$f" || fail "$f: merged shards differ from one run"
 done
+# The README's way to rerun a failed shard: that array task alone.
+rm -rf shards/3
+rerun=$(timeout "$TIMEOUT" sbatch --parsable --wait --array=3 sweep.sbatch) ||
+    fail "sbatch --wait --array=3 sweep.sbatch failed (see slurm-*_3.out)"
+[ "$(echo slurm-"$rerun"_*.out)" = "slurm-${rerun}_3.out" ] ||
+    fail "sbatch --array=3 sweep.sbatch ran other tasks than 3: $(echo slurm-"$rerun"_*.out)"
+frameid merge shards/* --out remerged >/dev/null || fail "merge after rerunning shard 3 failed"
+for f in trials.csv summary.json sweep.json representative.json; do
+    cmp "one/$f" "remerged/$f" || fail "$f: shards with shard 3 rerun differ from one run"
+done
+say "shard 3 rerun alone (sbatch --array=3 sweep.sbatch) and merged again: still == one run"
 shards=$(ls -d shards/* | wc -l)
 trials=$(($(wc -l <one/trials.csv) - 1))
 say "PASSED: $shards shards merged == one run ($trials trials; trials.csv, summary.json, sweep.json, representative.json byte for byte)"
+echo "slurm-test: 1 passed, 0 failed"
