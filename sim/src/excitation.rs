@@ -9,7 +9,8 @@
 //! The force channel records the same force, so the input-output relation
 //! is exact whatever the interpolation; the interpolation only shapes the
 //! force spectrum (by `sinc^2(f / f_grid)` for the linear one: 5e-4 at
-//! 25 Hz on a 2048 Hz grid).
+//! 25 Hz on a 2048 Hz grid; see [`crate::response::SignalEngine`] for the
+//! aliased images, about 1e-7).
 //!
 //! Time origin: `t = 0` is the first sample of the record, the trigger
 //! instant `t0` is `pretrigger_samples / sample_rate_hz`. Every signal
