@@ -190,6 +190,23 @@ impl Simulator {
                 format!("must be below the record length {}", s.samples),
             ));
         }
+        if let Some(crate::noise::ColouredNoise {
+            spectrum:
+                crate::noise::NoiseSpectrum::Pink {
+                    min_frequency_hz: Some(f),
+                },
+            ..
+        }) = &settings.noise.coloured
+            && *f >= fs / 2.0
+        {
+            return Err(SimError::invalid(
+                "noise.coloured.spectrum.min_frequency_hz",
+                format!(
+                    "must be below the Nyquist frequency ({} Hz), got {f} Hz",
+                    fs / 2.0
+                ),
+            ));
+        }
         let design = match &settings.acquisition {
             Acquisition::Analyzer(a) => Some(a.design(fs)?),
             Acquisition::Held => None,

@@ -64,12 +64,16 @@ pub enum NoiseSpectrum {
         /// Corner frequency, Hz.
         corner_hz: f64,
     },
-    /// 1/f ("pink") noise between `min_frequency_hz` and the Nyquist
-    /// frequency: the mean of unit-variance low-pass processes as above
-    /// with corners `min_frequency_hz * 10^(j/3)`, j = 0, 1, ... up to the
-    /// Nyquist frequency (three per decade). Spectrum within +-0.3 dB of
-    /// `1/f` between the lowest and highest corners, flat below
-    /// `min_frequency_hz`.
+    /// 1/f ("pink") noise from `min_frequency_hz` up: the mean of
+    /// unit-variance low-pass processes as above with corners
+    /// `min_frequency_hz * 10^(j/3)`, j = -3, -2, ... up to the Nyquist
+    /// frequency (three per decade, from a decade below the 1/f range so
+    /// that it holds down to `min_frequency_hz`). The exact spectrum (sum
+    /// of the components') stays within 0.5 dB peak to peak of a 1/f line
+    /// from `min_frequency_hz` to a quarter of the Nyquist frequency and
+    /// within 0.9 dB to half of it (1.7 dB near the Nyquist frequency,
+    /// where the sampled components alias); log-log slope -0.99 +- 0.02.
+    /// It flattens below `min_frequency_hz / 10`.
     Pink {
         /// Lower end of the 1/f range, Hz; default the inverse record
         /// length.
@@ -119,7 +123,7 @@ impl ColouredNoise {
                 let lo = min_frequency_hz.unwrap_or(1.0 / (len.max(1) as f64 * dt_s));
                 let nyquist = 0.5 / dt_s;
                 let mut f = Vec::new();
-                let mut j = 0;
+                let mut j = -3;
                 loop {
                     let c = lo * 10f64.powf(j as f64 / 3.0);
                     if c > nyquist && !f.is_empty() {

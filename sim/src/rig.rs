@@ -131,10 +131,12 @@ fn default_force_filter_order() -> usize {
 }
 
 /// Calibration and offset errors of one recorded channel: the record is
-/// `gain * (x + noise) + offset + drift_per_s * t`, with `x` the channel as
-/// the chain delivers it and `t` the time from the start of the record, s.
-/// Offsets and drifts come after the noise, so they do not raise noise
-/// levels set as a fraction of the channel's RMS.
+/// `gain * x + noise + offset + drift_per_s * t` (then the ADC), with `x`
+/// the channel as the chain delivers it and `t` the time from the start of
+/// the record, s. Noise set as a fraction of the channel's RMS is a
+/// fraction of the RMS of `gain * x`; absolute noise does not depend on
+/// the gain. Offsets and drifts come after the noise, so they do not raise
+/// noise levels set as a fraction of the RMS.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ChannelError {
