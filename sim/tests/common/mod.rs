@@ -192,3 +192,21 @@ pub fn slowest_decay_rate(model: &Model) -> f64 {
         .map(|p| -p.re)
         .fold(f64::INFINITY, f64::min)
 }
+
+/// Closed-form modal data of a proportionally damped model: for each mode
+/// (lambda, phi_j (phi_j^T e_input)) with mass-normalized phi, from the
+/// undamped modes and xi = phi^T R phi / (2 w).
+pub fn modal_terms(model: &Model, input: usize) -> Vec<(Complex64, Vec<f64>)> {
+    let (w2, phi) = sim::model::undamped_modes(&model.mass, &model.stiffness);
+    (0..model.dofs())
+        .map(|j| {
+            let w = w2[j].sqrt();
+            let col = phi.column(j);
+            let c_modal = (col.transpose() * &model.damping * col)[(0, 0)];
+            let xi = c_modal / (2.0 * w);
+            let lambda = Complex64::new(-xi * w, w * (1.0 - xi * xi).sqrt());
+            let coef: Vec<f64> = col.iter().map(|p| p * col[input]).collect();
+            (lambda, coef)
+        })
+        .collect()
+}
