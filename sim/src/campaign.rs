@@ -33,8 +33,10 @@ use crate::rig::{ChannelErrors, Plant, RigSettings, RigTruth};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Sampling {
+    /// Analysis sample rate, Hz (default 64).
     #[serde(default = "default_rate")]
     pub sample_rate_hz: f64,
+    /// Samples per record (default 2048).
     #[serde(default = "default_samples")]
     pub samples: usize,
     /// Samples recorded before the trigger instant (nominal hit time).
@@ -63,6 +65,7 @@ impl Default for Sampling {
 }
 
 impl Sampling {
+    /// Sample interval, s.
     pub fn dt_s(&self) -> f64 {
         1.0 / self.sample_rate_hz
     }
@@ -90,12 +93,18 @@ impl Default for Acquisition {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CampaignSettings {
+    /// Hits (records) per campaign.
     pub hits: usize,
+    /// The impact hammer (`[campaign.hammer]`); its floor is the input
+    /// floor for every excitation.
     pub hammer: HammerSettings,
+    /// Analysis sampling.
     #[serde(default)]
     pub sampling: Sampling,
+    /// How the records are acquired (analyzer chain by default).
     #[serde(default)]
     pub acquisition: Acquisition,
+    /// Measurement noise and ADC.
     #[serde(default)]
     pub noise: NoiseSettings,
     /// Record the force with inverted sign (a reversed hammer or
@@ -138,9 +147,11 @@ pub struct Hit {
 /// A simulated campaign.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Campaign {
+    /// Sample interval of the records, s.
     pub dt_s: f64,
     /// Hit floor, 1-based.
     pub hit_floor: usize,
+    /// The records, in order.
     pub hits: Vec<Hit>,
 }
 
@@ -254,10 +265,12 @@ impl Simulator {
         })
     }
 
+    /// The structural model (the truth).
     pub fn model(&self) -> &Model {
         &self.model
     }
 
+    /// The campaign settings.
     pub fn settings(&self) -> &CampaignSettings {
         &self.settings
     }

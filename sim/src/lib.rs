@@ -28,6 +28,8 @@
 //! from ChaCha8 streams derived from one `u64` seed: the same seed gives
 //! bit-identical campaigns on any machine and thread count.
 
+#![deny(missing_docs)]
+
 pub mod analyzer;
 pub mod campaign;
 pub mod damping;

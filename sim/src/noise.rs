@@ -14,12 +14,16 @@ use crate::error::{SimError, non_negative, positive};
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NoiseSettings {
+    /// White-noise standard deviation as a fraction of the clean channel's RMS.
     #[serde(default)]
     pub fraction: f64,
+    /// Absolute white-noise standard deviation on the force channel, N.
     #[serde(default)]
     pub absolute_force_n: f64,
+    /// Absolute white-noise standard deviation on the acceleration channels, m/s^2.
     #[serde(default)]
     pub absolute_acceleration_m_s2: f64,
+    /// The ADC's range and resolution; none by default.
     #[serde(default)]
     pub adc: Option<AdcSettings>,
     /// Coloured (correlated) Gaussian noise added to the white noise
@@ -186,8 +190,11 @@ impl ColouredNoise {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AdcSettings {
+    /// Input range of the force channel, +- N.
     pub force_range_n: f64,
+    /// Input range of the acceleration channels, +- m/s^2.
     pub acceleration_range_m_s2: f64,
+    /// Resolution, bits; none: no quantization.
     #[serde(default)]
     pub bits: Option<u32>,
 }

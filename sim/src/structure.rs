@@ -39,14 +39,19 @@ impl EndCondition {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Storey {
+    /// Number of pillars.
     pub pillars: u32,
     /// Pillar section size along the floor (out of the bending plane), m.
     pub pillar_width_m: f64,
     /// Pillar section size in the direction of sway (bending), m.
     pub pillar_thickness_m: f64,
+    /// Free length of the pillars (storey height), m.
     pub length_m: f64,
+    /// Young's modulus of the pillars, Pa.
     pub youngs_modulus_pa: f64,
+    /// Density of the pillars, kg/m^3.
     pub density_kg_m3: f64,
+    /// How the pillars are held at their ends.
     #[serde(default)]
     pub end_condition: EndCondition,
 }
@@ -55,12 +60,19 @@ pub struct Storey {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Floor {
+    /// Block length, m.
     pub block_length_m: f64,
+    /// Block width, m.
     pub block_width_m: f64,
+    /// Block height, m.
     pub block_height_m: f64,
+    /// Block density, kg/m^3.
     pub block_density_kg_m3: f64,
+    /// Mass of the sensors on the floor, kg (reported apart by
+    /// [`ShearFrame::sensor_masses_kg`]).
     #[serde(default)]
     pub sensor_mass_kg: f64,
+    /// Any other added mass, kg.
     #[serde(default)]
     pub added_mass_kg: f64,
 }
@@ -68,7 +80,9 @@ pub struct Floor {
 /// An n-storey shear frame: `storeys[i]` carries `floors[i]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ShearFrame {
+    /// Storeys, bottom up.
     pub storeys: Vec<Storey>,
+    /// Floors, bottom up.
     pub floors: Vec<Floor>,
 }
 
