@@ -535,11 +535,25 @@ impl SignalEngine {
         );
         let d = self.oversampling as i64;
         let l = self.fir_half_length() as i64;
-        // Internal samples from max(first, -L) to `last`.
+        // Internal samples s[ch][i - lo] for i in lo..=last; zero before
+        // `first`.
         let lo = first.max(-l);
         let count = (last - lo + 1).max(0) as usize;
-        let mut s = DMatrix::zeros(self.n_out, count);
+        let mut s = vec![vec![0.0; count]; self.n_out];
+        // Nonzero entries of each output row (one per filter).
+        let rows: Vec<Vec<(usize, f64)>> = (0..self.n_out)
+            .map(|ch| {
+                self.c_out
+                    .row(ch)
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, v)| **v != 0.0)
+                    .map(|(j, v)| (j, *v))
+                    .collect()
+            })
+            .collect();
         let mut z = DVector::zeros(self.phi.nrows());
+        let mut next = DVector::zeros(self.phi.nrows());
         let mut u_prev = 0.0;
         for (i, &ui) in u.iter().enumerate() {
             let idx = first + i as i64;
@@ -547,24 +561,31 @@ impl SignalEngine {
                 break;
             }
             // Step from idx - 1 to idx.
-            z = &self.phi * z + &self.gamma0 * u_prev + &self.gamma1 * (ui - u_prev);
+            next.gemv(1.0, &self.phi, &z, 0.0);
+            next.axpy(u_prev, &self.gamma0, 1.0);
+            next.axpy(ui - u_prev, &self.gamma1, 1.0);
+            std::mem::swap(&mut z, &mut next);
             u_prev = ui;
             if idx >= lo {
-                s.set_column((idx - lo) as usize, &(&self.c_out * &z));
+                let k = (idx - lo) as usize;
+                for (ch, row) in rows.iter().enumerate() {
+                    s[ch][k] = row.iter().map(|&(j, c)| c * z[j]).sum();
+                }
             }
         }
         let mut out = vec![vec![0.0; self.samples]; self.n_out];
         for n in 0..self.samples as i64 {
+            // Window n d - l ..= n d + l, clipped below at lo.
             let start = n * d - l;
+            let skip = (lo - start).max(0) as usize;
+            if skip >= self.taps.len() {
+                continue; // the window ends before the force starts
+            }
+            let from = (start + skip as i64 - lo) as usize;
+            let taps = &self.taps[skip..];
             for (ch, channel) in out.iter_mut().enumerate() {
-                let mut acc = 0.0;
-                for (k, &t) in self.taps.iter().enumerate() {
-                    let i = start + k as i64;
-                    if i >= lo {
-                        acc += t * s[(ch, (i - lo) as usize)];
-                    }
-                }
-                channel[n as usize] = acc;
+                let window = &s[ch][from..from + taps.len()];
+                channel[n as usize] = taps.iter().zip(window).map(|(t, v)| t * v).sum();
             }
         }
         out
