@@ -27,10 +27,14 @@ pub struct AnalyzerSettings {
     /// Order of the analog Butterworth anti-alias filter.
     #[serde(default = "default_analog_order")]
     pub analog_order: usize,
+    /// -3 dB cut-off of the analog filter, Hz; default a quarter of the
+    /// internal rate.
     #[serde(default)]
     pub analog_cutoff_hz: Option<f64>,
+    /// Passband edge of the decimation filter, Hz; default `fs / 2.56`.
     #[serde(default)]
     pub passband_hz: Option<f64>,
+    /// Stop-band edge of the decimation filter, Hz; default `fs / 2`.
     #[serde(default)]
     pub stopband_hz: Option<f64>,
     /// Stop-band attenuation of the decimation filter, dB.
@@ -64,12 +68,19 @@ impl Default for AnalyzerSettings {
 /// Resolved analyzer parameters (all defaults applied and checked).
 #[derive(Debug, Clone, PartialEq)]
 pub struct AnalyzerDesign {
+    /// Internal samples per analysis sample.
     pub oversampling: usize,
+    /// Internal (ADC) rate, Hz.
     pub internal_rate_hz: f64,
+    /// Order of the analog Butterworth filter.
     pub analog_order: usize,
+    /// -3 dB cut-off of the analog filter, Hz.
     pub analog_cutoff_hz: f64,
+    /// Passband edge of the decimation FIR, Hz.
     pub passband_hz: f64,
+    /// Stop-band edge of the decimation FIR, Hz.
     pub stopband_hz: f64,
+    /// Stop-band attenuation of the decimation FIR, dB.
     pub stopband_attenuation_db: f64,
 }
 
@@ -147,8 +158,11 @@ impl AnalyzerSettings {
 /// Strictly proper SISO state space `x' = a x + b u`, `y = c x`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AnalogFilter {
+    /// State matrix.
     pub a: DMatrix<f64>,
+    /// Input column.
     pub b: DMatrix<f64>,
+    /// Output row.
     pub c: DMatrix<f64>,
 }
 

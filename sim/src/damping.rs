@@ -15,15 +15,31 @@ pub enum DampingSpec {
     /// No proportional damping (dashpots only, or undamped).
     None,
     /// `damping = alpha M + beta K`; alpha in 1/s, beta in s.
-    Rayleigh { alpha: f64, beta: f64 },
+    Rayleigh {
+        /// Mass-proportional coefficient, 1/s.
+        alpha: f64,
+        /// Stiffness-proportional coefficient, s.
+        beta: f64,
+    },
     /// Rayleigh coefficients chosen so that two modes (1-based, in
     /// ascending frequency) have the given damping ratios.
-    TargetRatios { modes: [usize; 2], ratios: [f64; 2] },
+    TargetRatios {
+        /// The two modes, 1-based in ascending frequency.
+        modes: [usize; 2],
+        /// Their damping ratios.
+        ratios: [f64; 2],
+    },
     /// A damping ratio for every mode (ascending frequency):
     /// `damping = M Phi diag(2 xi_i w_i) Phi^T M` with mass-normalized Phi.
-    Modal { ratios: Vec<f64> },
+    Modal {
+        /// One damping ratio per mode, ascending frequency.
+        ratios: Vec<f64>,
+    },
     /// The damping matrix given directly (rows), N s/m.
-    Matrix { matrix: Vec<Vec<f64>> },
+    Matrix {
+        /// Rows of the damping matrix, N s/m.
+        matrix: Vec<Vec<f64>>,
+    },
 }
 
 /// A viscous dashpot across one storey (between floor `storey - 1`, the
@@ -33,6 +49,7 @@ pub enum DampingSpec {
 pub struct Dashpot {
     /// 1-based storey index.
     pub storey: usize,
+    /// Viscous coefficient, N s/m.
     pub coefficient_ns_per_m: f64,
 }
 

@@ -10,8 +10,11 @@ use crate::error::{SimError, non_negative, positive};
 /// `[start_s, start_s + duration_s]`, zero elsewhere.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Pulse {
+    /// Start time from the start of the record, s.
     pub start_s: f64,
+    /// Contact duration, s.
     pub duration_s: f64,
+    /// Peak force, N.
     pub peak_n: f64,
 }
 

@@ -6,10 +6,15 @@
 //! - [`model`]: M, K and damping checked, state space with acceleration
 //!   outputs, modal properties (the truth).
 //! - [`hammer`]: half-sine pulses with hit-to-hit variation, double hits.
+//! - [`excitation`]: shaker signals instead of the hammer (band-limited
+//!   random, burst random, chirps).
+//! - [`rig`]: test-rig effects, all off by default: modes outside the shear
+//!   model, accelerometer resonance, force filtering, channel gain, offset
+//!   and drift.
 //! - [`analyzer`] and [`response`]: exact responses through an analyzer
 //!   chain (analog anti-alias filter, high-rate ADC, decimation FIR) or with
 //!   the force held per sample (zero-order hold).
-//! - [`noise`]: Gaussian noise, clipping, quantization.
+//! - [`noise`]: Gaussian noise (white and coloured), clipping, quantization.
 //! - [`campaign`]: campaigns of hits from a seed.
 //!
 //! # Conventions
@@ -23,15 +28,19 @@
 //! from ChaCha8 streams derived from one `u64` seed: the same seed gives
 //! bit-identical campaigns on any machine and thread count.
 
+#![deny(missing_docs)]
+
 pub mod analyzer;
 pub mod campaign;
 mod convert;
 pub mod damping;
 pub mod error;
+pub mod excitation;
 pub mod hammer;
 pub mod model;
 pub mod noise;
 pub mod response;
+pub mod rig;
 pub mod structure;
 
 pub use analyzer::AnalyzerSettings;
@@ -40,7 +49,14 @@ pub use campaign::{
 };
 pub use damping::{DampingSpec, Dashpot, build_damping, matrix_from_rows};
 pub use error::SimError;
+pub use excitation::{
+    BurstRandomExcitation, ChirpExcitation, ChirpSweep, Excitation, RandomExcitation,
+};
 pub use hammer::{DoubleHit, HammerSettings, Pulse};
 pub use model::{ContinuousSystem, ModalProperties, Model};
-pub use noise::{AdcSettings, NoiseSettings};
-pub use structure::{EndCondition, Floor, ShearFrame, Storey};
+pub use noise::{AdcSettings, ColouredNoise, NoiseSettings, NoiseSpectrum};
+pub use rig::{
+    AccelerometerResonance, ChannelError, ExtraMode, ForceFilter, ForceFilterTarget, Plant,
+    RigSettings, RigTruth,
+};
+pub use structure::{EndCondition, Floor, ShearFrame, Storey, StructureMatrices, StructureSpec};

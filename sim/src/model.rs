@@ -10,8 +10,11 @@ use crate::error::SimError;
 /// kg, N/m, N s/m). DOF i is the lateral displacement of floor i + 1.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model {
+    /// Mass matrix, kg.
     pub mass: DMatrix<f64>,
+    /// Stiffness matrix, N/m.
     pub stiffness: DMatrix<f64>,
+    /// Damping matrix, N s/m.
     pub damping: DMatrix<f64>,
 }
 
@@ -35,9 +38,13 @@ pub struct ModalProperties {
 /// outputs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ContinuousSystem {
+    /// State matrix `[[0, I], [-M^-1 K, -M^-1 damping]]`.
     pub a: DMatrix<f64>,
+    /// Input column `[0; M^-1 e_input]`.
     pub b: DMatrix<f64>,
+    /// Acceleration output matrix `[-M^-1 K, -M^-1 damping]`.
     pub c: DMatrix<f64>,
+    /// Feedthrough `M^-1 e_input`.
     pub d: DMatrix<f64>,
 }
 

@@ -39,14 +39,19 @@ impl EndCondition {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Storey {
+    /// Number of pillars.
     pub pillars: u32,
     /// Pillar section size along the floor (out of the bending plane), m.
     pub pillar_width_m: f64,
     /// Pillar section size in the direction of sway (bending), m.
     pub pillar_thickness_m: f64,
+    /// Free length of the pillars (storey height), m.
     pub length_m: f64,
+    /// Young's modulus of the pillars, Pa.
     pub youngs_modulus_pa: f64,
+    /// Density of the pillars, kg/m^3.
     pub density_kg_m3: f64,
+    /// How the pillars are held at their ends.
     #[serde(default)]
     pub end_condition: EndCondition,
 }
@@ -55,12 +60,19 @@ pub struct Storey {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Floor {
+    /// Block length, m.
     pub block_length_m: f64,
+    /// Block width, m.
     pub block_width_m: f64,
+    /// Block height, m.
     pub block_height_m: f64,
+    /// Block density, kg/m^3.
     pub block_density_kg_m3: f64,
+    /// Mass of the sensors on the floor, kg (reported apart by
+    /// [`ShearFrame::sensor_masses_kg`]).
     #[serde(default)]
     pub sensor_mass_kg: f64,
+    /// Any other added mass, kg.
     #[serde(default)]
     pub added_mass_kg: f64,
 }
@@ -68,7 +80,9 @@ pub struct Floor {
 /// An n-storey shear frame: `storeys[i]` carries `floors[i]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ShearFrame {
+    /// Storeys, bottom up.
     pub storeys: Vec<Storey>,
+    /// Floors, bottom up.
     pub floors: Vec<Floor>,
 }
 
@@ -192,6 +206,31 @@ impl ShearFrame {
             .collect()
     }
 
+    /// Lumped floor masses without the sensors, kg: block + half the
+    /// pillars below + half the pillars above + added mass. Computed
+    /// without the sensor term (not by subtracting it from
+    /// [`ShearFrame::floor_masses`]).
+    pub fn bare_floor_masses(&self) -> Vec<f64> {
+        let n = self.dofs();
+        (0..n)
+            .map(|i| {
+                let below = 0.5 * self.storeys[i].pillars_mass_kg();
+                let above = if i + 1 < n {
+                    0.5 * self.storeys[i + 1].pillars_mass_kg()
+                } else {
+                    0.0
+                };
+                let f = &self.floors[i];
+                f.block_mass_kg() + below + above + f.added_mass_kg
+            })
+            .collect()
+    }
+
+    /// Sensor mass on every floor, kg.
+    pub fn sensor_masses_kg(&self) -> Vec<f64> {
+        self.floors.iter().map(|f| f.sensor_mass_kg).collect()
+    }
+
     /// Diagonal lumped mass matrix.
     pub fn mass_matrix(&self) -> DMatrix<f64> {
         DMatrix::from_diagonal(&nalgebra::DVector::from_vec(self.floor_masses()))
@@ -200,6 +239,131 @@ impl ShearFrame {
     /// Tridiagonal stiffness matrix of the storey springs.
     pub fn stiffness_matrix(&self) -> DMatrix<f64> {
         chain_matrix(&self.storey_stiffnesses())
+    }
+}
+
+/// The structure of a scenario (`[structure]`): mass and stiffness given
+/// directly, or a shear frame built from geometry. Sensor masses are part
+/// of the truth model either way; [`StructureMatrices`] reports the mass
+/// with and without them, so that a known sensor mass can be subtracted
+/// from an identified one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum StructureSpec {
+    /// Mass (kg) and stiffness (N/m) matrices as arrays of rows.
+    Matrices {
+        /// Mass matrix rows, kg: the structure without the sensors when
+        /// `sensor_masses_kg` is given, everything otherwise.
+        mass: Vec<Vec<f64>>,
+        /// Stiffness matrix rows, N/m.
+        stiffness: Vec<Vec<f64>>,
+        /// Accelerometer mass on each floor (floor 1 first), kg, added to
+        /// the diagonal of `mass` for the truth model. Absent: none.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        sensor_masses_kg: Option<Vec<f64>>,
+    },
+    /// Storeys (bottom up) and the floors they carry; each floor's
+    /// `sensor_mass_kg` is its sensor mass.
+    ShearFrame {
+        /// Storeys, bottom up.
+        storeys: Vec<Storey>,
+        /// Floors, bottom up.
+        floors: Vec<Floor>,
+    },
+}
+
+/// Mass and stiffness of a [`StructureSpec`], with the sensor masses apart.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StructureMatrices {
+    /// Mass of the structure with its sensors (the truth model's), kg.
+    pub mass: DMatrix<f64>,
+    /// Mass without the sensors, kg.
+    pub bare_mass: DMatrix<f64>,
+    /// Sensor mass on each floor, kg (zeros when none are given).
+    pub sensor_masses_kg: Vec<f64>,
+    /// Stiffness, N/m.
+    pub stiffness: DMatrix<f64>,
+}
+
+impl StructureSpec {
+    /// Number of floors (DOFs) as written.
+    pub fn dofs(&self) -> usize {
+        match self {
+            StructureSpec::Matrices { mass, .. } => mass.len(),
+            StructureSpec::ShearFrame { floors, .. } => floors.len(),
+        }
+    }
+
+    /// Builds the matrices; errors name the field as `structure.…`. The
+    /// loaded mass of a shear frame is [`ShearFrame::mass_matrix`] (bit for
+    /// bit); for matrices without sensor masses it is `mass` as given.
+    pub fn matrices(&self) -> Result<StructureMatrices, SimError> {
+        match self {
+            StructureSpec::Matrices {
+                mass,
+                stiffness,
+                sensor_masses_kg,
+            } => {
+                let n = mass.len();
+                if n == 0 {
+                    return Err(SimError::invalid(
+                        "structure.mass",
+                        "must have at least one row",
+                    ));
+                }
+                let bare = crate::damping::matrix_from_rows("structure.mass", mass, n)?;
+                let stiffness =
+                    crate::damping::matrix_from_rows("structure.stiffness", stiffness, n)?;
+                let sensors = match sensor_masses_kg {
+                    None => vec![0.0; n],
+                    Some(s) => {
+                        if s.len() != n {
+                            return Err(SimError::invalid(
+                                "structure.sensor_masses_kg",
+                                format!("has {} entries, expected one per floor ({n})", s.len()),
+                            ));
+                        }
+                        for (i, &m) in s.iter().enumerate() {
+                            non_negative(&format!("structure.sensor_masses_kg[{i}]"), m)?;
+                        }
+                        s.clone()
+                    }
+                };
+                let mut loaded = bare.clone();
+                if sensor_masses_kg.is_some() {
+                    for (i, m) in sensors.iter().enumerate() {
+                        loaded[(i, i)] += m;
+                    }
+                }
+                Ok(StructureMatrices {
+                    mass: loaded,
+                    bare_mass: bare,
+                    sensor_masses_kg: sensors,
+                    stiffness,
+                })
+            }
+            StructureSpec::ShearFrame { storeys, floors } => {
+                let frame = ShearFrame {
+                    storeys: storeys.clone(),
+                    floors: floors.clone(),
+                };
+                frame.check().map_err(|e| match e {
+                    SimError::Invalid { field, problem } => SimError::Invalid {
+                        field: format!("structure.{field}"),
+                        problem,
+                    },
+                    other => other,
+                })?;
+                Ok(StructureMatrices {
+                    mass: frame.mass_matrix(),
+                    bare_mass: DMatrix::from_diagonal(&nalgebra::DVector::from_vec(
+                        frame.bare_floor_masses(),
+                    )),
+                    sensor_masses_kg: frame.sensor_masses_kg(),
+                    stiffness: frame.stiffness_matrix(),
+                })
+            }
+        }
     }
 }
 

@@ -323,6 +323,8 @@ fn analyzer_chain_preserves_the_input_output_relation() {
         acquisition: Acquisition::Analyzer(AnalyzerSettings::default()),
         noise: NoiseSettings::default(),
         invert_force_polarity: false,
+        excitation: Default::default(),
+        rig: Default::default(),
     };
     let sim = Simulator::new(model.clone(), settings).unwrap();
     let campaign = sim.simulate(7);
@@ -425,6 +427,8 @@ fn campaign_settings(noise: NoiseSettings) -> CampaignSettings {
         acquisition: Acquisition::Analyzer(AnalyzerSettings::default()),
         noise,
         invert_force_polarity: false,
+        excitation: Default::default(),
+        rig: Default::default(),
     }
 }
 
