@@ -14,6 +14,18 @@
 //! * `coherence[k]` (if known) is the ordinary coherence of every
 //!   response/reference pair at line `k`, in `[0, 1]`.
 
+pub mod identify;
+pub mod lscf;
+pub mod lsfd;
+#[cfg(test)]
+pub(crate) mod synth;
+
+pub use identify::{
+    FrfIdentError, FrfIdentification, FrfIdentifier, FrfModal, FrfOrder, ModeSelection, Weighting,
+};
+pub use lscf::{Lscf, LscfParams, LscfPole};
+pub use lsfd::{Lsfd, LsfdParams, ResidualTerms};
+
 use crate::linalg::C64;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
