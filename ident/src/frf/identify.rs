@@ -24,7 +24,13 @@
 //!    `(0, max_damping_ratio]`, frequency in the band) are the modes.
 //! 3. LSFD fits their residues with lower and upper residual terms on the
 //!    same band and refines the poles ([`Lsfd`]).
-//! 4. Each mode becomes a [`Mode`] as on the time-domain route: `shape` is the
+//! 4. A mode whose refined pole left the band or the damping range, or whose
+//!    peak contribution `msv_relative` is below `min_contribution` (default
+//!    1 %: a peak 40 dB below the largest), is set aside as a
+//!    [`RejectedMode`] and LSFD is run again without it: noise poles that
+//!    happen to be stable over a few orders carry little of the FRF and
+//!    drift away when refined.
+//!    Each mode becomes a [`Mode`] as on the time-domain route: `shape` is the
 //!    dominant left singular vector of its residue matrix (the mode shape of
 //!    `psi l^T`), `residue` is the rank-one part of its *accelerance* residue
 //!    `lambda^2 R_j` (for one reference, the residue itself), `eigenvalue` is
@@ -137,6 +143,9 @@ pub struct FrfIdentifier {
     /// Largest number of iterations refining the poles in LSFD (0 keeps the
     /// pLSCF poles).
     pub pole_iterations: usize,
+    /// Smallest peak contribution of a mode relative to the largest
+    /// (`msv_relative`) for it to stay in the modal model.
+    pub min_contribution: f64,
     /// Modes for MKR.
     pub selection: ModeSelection,
     /// Collocated pair (output, reference).
@@ -155,6 +164,7 @@ impl Default for FrfIdentifier {
             max_damping_ratio: 0.2,
             residuals: ResidualTerms::default(),
             pole_iterations: 50,
+            min_contribution: 0.01,
             selection: ModeSelection::Largest,
             collocated: CollocatedPair::default(),
             polarity: PolarityPolicy::default(),
@@ -174,6 +184,34 @@ pub struct FrfModal {
     pub modes: Vec<Mode>,
     /// LSFD fit; its poles and residues are in the order of `modes`.
     pub lsfd: Lsfd,
+    /// Stable physical pLSCF poles left out of the modal model (step 4).
+    pub rejected: Vec<RejectedMode>,
+}
+
+/// A stable physical pLSCF pole left out of the modal model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RejectedMode {
+    /// Natural frequency of the pLSCF pole, Hz.
+    pub frequency_hz: f64,
+    /// Damping ratio of the pLSCF pole.
+    pub damping_ratio: f64,
+    /// Why it was left out.
+    pub reason: RejectReason,
+}
+
+/// Why a stable physical pLSCF pole was left out of the modal model.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum RejectReason {
+    /// The pole refinement moved it out of the band or of the damping range.
+    LeftPhysicalRange {
+        /// The refined pole, rad/s.
+        refined: C64,
+    },
+    /// Its peak contribution is below `min_contribution` of the largest.
+    Insignificant {
+        /// Its `msv_relative`.
+        contribution: f64,
+    },
 }
 
 /// Result of the FRF route; the fields it shares with
@@ -219,6 +257,8 @@ pub struct FrfIdentification {
     pub diagram: Lscf,
     /// LSFD fit of all `modes` (same order).
     pub lsfd: Lsfd,
+    /// Stable physical pLSCF poles left out of the modal model.
+    pub rejected: Vec<RejectedMode>,
 }
 
 /// Ways the FRF route can fail.
@@ -439,6 +479,12 @@ impl FrfIdentifier {
         self
     }
 
+    /// Sets the smallest relative peak contribution of a mode.
+    pub fn min_contribution(mut self, ratio: f64) -> Self {
+        self.min_contribution = ratio;
+        self
+    }
+
     /// Sets the MKR mode selection.
     pub fn selection(mut self, selection: ModeSelection) -> Self {
         self.selection = selection;
@@ -476,6 +522,12 @@ impl FrfIdentifier {
     /// Validates the parameters (not the data).
     pub fn check(&self) -> Result<(), FrfIdentError> {
         self.lscf_params().check()?;
+        if !(0.0..1.0).contains(&self.min_contribution) {
+            return Err(FrfIdentError::InvalidParams {
+                field: "min_contribution",
+                reason: format!("{} must be in [0, 1)", self.min_contribution),
+            });
+        }
         match &self.selection {
             ModeSelection::Largest => {}
             ModeSelection::Nearest {
@@ -519,31 +571,78 @@ impl FrfIdentifier {
                 max_order: diagram.max_order,
             })?,
         };
-        let poles: Vec<C64> = diagram
+        let mut poles: Vec<C64> = diagram
             .stable_physical_at(order)
             .iter()
             .map(|p| p.pole)
             .collect();
-        if poles.is_empty() {
-            return Err(FrfIdentError::NoStableModes {
-                band_hz: diagram.band_hz,
-                max_order: order,
-            });
-        }
-        let lsfd = LsfdParams {
+        let lsfd_params = LsfdParams {
             band_hz: self.band_hz,
             residuals: self.residuals,
             weighting: self.weighting,
             max_iterations: self.pole_iterations,
+        };
+        let mut rejected = Vec::new();
+        loop {
+            if poles.is_empty() {
+                return Err(FrfIdentError::NoStableModes {
+                    band_hz: diagram.band_hz,
+                    max_order: order,
+                });
+            }
+            let lsfd = lsfd_params.fit(frf, &poles)?;
+            let modes = modes_from_lsfd(&lsfd, diagram.dt_s)?;
+            // Poles that left the physical range first (a runaway pole can
+            // have a huge contribution and dwarf the others), then the
+            // insignificant ones, each followed by a new fit.
+            let (lo, hi) = diagram.band_hz;
+            let left: Vec<Option<RejectReason>> = modes
+                .iter()
+                .map(|md| {
+                    let physical = md.damping_ratio > 0.0
+                        && md.damping_ratio <= self.max_damping_ratio
+                        && md.frequency_hz >= lo
+                        && md.frequency_hz <= hi;
+                    (!physical).then_some(RejectReason::LeftPhysicalRange { refined: md.pole })
+                })
+                .collect();
+            let reasons = if left.iter().any(Option::is_some) {
+                left
+            } else {
+                modes
+                    .iter()
+                    .map(|md| {
+                        (md.indicators.msv_relative < self.min_contribution).then_some(
+                            RejectReason::Insignificant {
+                                contribution: md.indicators.msv_relative,
+                            },
+                        )
+                    })
+                    .collect()
+            };
+            if reasons.iter().all(Option::is_none) {
+                return Ok(FrfModal {
+                    diagram,
+                    order,
+                    modes,
+                    lsfd,
+                    rejected,
+                });
+            }
+            // Refit without them, from the pLSCF poles of the others.
+            let mut kept = Vec::new();
+            for (pole, reason) in poles.iter().zip(reasons) {
+                match reason {
+                    Some(reason) => rejected.push(RejectedMode {
+                        frequency_hz: pole.norm() / (2.0 * std::f64::consts::PI),
+                        damping_ratio: -pole.re / pole.norm(),
+                        reason,
+                    }),
+                    None => kept.push(*pole),
+                }
+            }
+            poles = kept;
         }
-        .fit(frf, &poles)?;
-        let modes = modes_from_lsfd(&lsfd, diagram.dt_s)?;
-        Ok(FrfModal {
-            diagram,
-            order,
-            modes,
-            lsfd,
-        })
     }
 
     /// The whole route: modes, MKR and Rayleigh damping.
@@ -561,6 +660,7 @@ impl FrfIdentifier {
             order,
             mut modes,
             mut lsfd,
+            rejected,
         } = self.modal(frf)?;
         let selected = self.select(&modes, m, order)?;
         let mut warnings = Vec::new();
@@ -638,6 +738,7 @@ impl FrfIdentifier {
             order,
             diagram,
             lsfd,
+            rejected,
         };
         result.ensure_finite()?;
         Ok(result)

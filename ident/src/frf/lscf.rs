@@ -183,36 +183,56 @@ impl Lscf {
             .collect()
     }
 
-    /// Automatic order: the count of stable physical poles that occurs at
-    /// the most orders (ties go to the larger count) is taken as the number
-    /// of modes in the band, and the median of the orders showing that count
-    /// is returned. `None` if no order has a stable physical pole.
+    /// Automatic order. With `c_p` the number of stable physical poles at
+    /// order `p`, the number of modes in the band is taken as the largest
+    /// `c` such that `c_p >= c` holds on [`AUTO_MIN_RUN`] consecutive orders
+    /// or more; the order is the median of the orders of the longest such
+    /// run that show exactly `c` (no transient extra pole). `None` if no
+    /// order has a stable physical pole.
     ///
-    /// Structural modes stay stable over a long range of orders while noise
-    /// poles come and go, so the most frequent count is robust to both
-    /// under-modelling (low orders) and noise fitting (high orders); the
-    /// median order keeps away from both ends of that range.
+    /// Structural modes stay stable over a range of orders once the model
+    /// is rich enough, while noise poles come and go; requiring a run keeps
+    /// the transients out, and taking the largest count keeps weak modes
+    /// that stabilize late (a lightly damped mode resolved by few lines).
     pub fn auto_order(&self) -> Option<usize> {
-        let counts: Vec<(usize, usize)> = (1..=self.max_order)
-            .map(|p| (p, self.stable_physical_at(p).len()))
+        let counts: Vec<usize> = (1..=self.max_order)
+            .map(|p| self.stable_physical_at(p).len())
             .collect();
-        let max_count = counts.iter().map(|&(_, c)| c).max()?;
-        let mut best: Option<(usize, usize)> = None; // (occurrences, count)
-        for count in 1..=max_count {
-            let occurrences = counts.iter().filter(|&&(_, c)| c == count).count();
-            if occurrences > 0 && best.is_none_or(|(o, _)| occurrences >= o) {
-                best = Some((occurrences, count));
+        let max_count = *counts.iter().max()?;
+        if max_count == 0 {
+            return None;
+        }
+        let min_run = AUTO_MIN_RUN.min(self.max_order.saturating_sub(1)).max(1);
+        for c in (1..=max_count).rev() {
+            // Longest run of consecutive orders with c_p >= c (indices into counts).
+            let (mut best, mut start) = (None::<(usize, usize)>, None);
+            for (i, &n) in counts.iter().chain(std::iter::once(&0)).enumerate() {
+                match (n >= c, start) {
+                    (true, None) => start = Some(i),
+                    (false, Some(s0)) => {
+                        if best.is_none_or(|(a, b)| i - s0 > b - a) {
+                            best = Some((s0, i));
+                        }
+                        start = None;
+                    }
+                    _ => {}
+                }
+            }
+            if let Some((a, b)) = best
+                && b - a >= min_run
+            {
+                let exact: Vec<usize> = (a..b).filter(|&i| counts[i] == c).collect();
+                return Some(exact[(exact.len() - 1) / 2] + 1);
             }
         }
-        let (_, count) = best?;
-        let orders: Vec<usize> = counts
-            .iter()
-            .filter(|&&(_, c)| c == count)
-            .map(|&(p, _)| p)
-            .collect();
-        Some(orders[(orders.len() - 1) / 2])
+        // Fewer orders than a run: the first order with the largest count.
+        counts.iter().position(|&n| n == max_count).map(|i| i + 1)
     }
 }
+
+/// Consecutive orders on which a count of stable poles must hold for
+/// [`Lscf::auto_order`].
+pub const AUTO_MIN_RUN: usize = 4;
 
 impl LscfParams {
     /// Validates the parameters (not the data).

@@ -128,8 +128,10 @@ impl Default for LsfdParams {
 pub enum RefineStop {
     /// Not requested (`max_iterations = 0`).
     NotRequested,
-    /// The cost stopped decreasing (relative decrease below `1e-12`, a pole
-    /// step below `1e-13` relative, or no step lowers it).
+    /// The cost stopped decreasing: a decrease below `1e-12` of the cost or
+    /// below `1e-4` of the residual variance (the poles then move by about
+    /// `1e-2` of their standard errors), a pole step below `1e-13` relative,
+    /// or no step lowers it.
     Converged,
     /// The iteration budget ran out.
     MaxIterations,
@@ -286,6 +288,10 @@ impl LsfdParams {
             weights: &weights,
             powers: &powers,
         };
+        let (l, n_ref) = (frf.outputs_count(), frf.references_count());
+        let equations = 2 * lines.len() * l * n_ref;
+        let parameters = unknowns * l * n_ref + 2 * poles.len();
+        let dof = equations.saturating_sub(parameters).max(1);
         let mut current = problem.solve(poles)?;
         let initial_cost = current.cost;
         let mut poles = poles.to_vec();
@@ -323,7 +329,13 @@ impl LsfdParams {
                         .zip(&poles)
                         .all(|(a, b)| (a - b).norm() <= 1e-13 * b.norm());
                     poles = trial;
-                    let done = decrease <= 1e-12 * current.cost || small_step;
+                    // Stop when the cost no longer changes relatively, or
+                    // by less than 1e-4 of the residual variance: the poles
+                    // then move by about 1e-2 of their standard errors.
+                    let variance = next.cost / dof as f64;
+                    let done = decrease <= 1e-12 * current.cost
+                        || decrease <= 1e-4 * variance
+                        || small_step;
                     current = next;
                     mu = (mu / 10.0).max(1e-12);
                     accepted = true;
@@ -344,14 +356,10 @@ impl LsfdParams {
                 break;
             }
         }
-        let (l, n_ref) = (frf.outputs_count(), frf.references_count());
         let n_modes = poles.len();
-        let equations = 2 * lines.len() * l * n_ref;
-        let parameters = unknowns * l * n_ref + 2 * n_modes;
         let (frequency_std_hz, damping_ratio_std) = if equations > parameters {
             let (jtj, _) = problem.gauss_newton(&poles, &current);
-            let variance = current.cost / (equations - parameters) as f64;
-            standard_errors(&poles, &jtj, variance)
+            standard_errors(&poles, &jtj, current.cost / dof as f64)
         } else {
             (vec![f64::NAN; n_modes], vec![f64::NAN; n_modes])
         };

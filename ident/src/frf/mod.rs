@@ -21,7 +21,8 @@ pub mod lsfd;
 pub(crate) mod synth;
 
 pub use identify::{
-    FrfIdentError, FrfIdentification, FrfIdentifier, FrfModal, FrfOrder, ModeSelection, Weighting,
+    FrfIdentError, FrfIdentification, FrfIdentifier, FrfModal, FrfOrder, ModeSelection,
+    RejectReason, RejectedMode, Weighting,
 };
 pub use lscf::{Lscf, LscfParams, LscfPole};
 pub use lsfd::{Lsfd, LsfdParams, ResidualTerms};

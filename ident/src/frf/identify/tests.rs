@@ -288,10 +288,14 @@ fn a_mode_outside_the_model_is_reported() {
         },
         ModeSelection::Band(1.0, 12.0),
     ] {
+        // Its peak is 0.17 % of the largest (measured): below the default
+        // `min_contribution` of 1 %, so it is let in explicitly.
         let id = FrfIdentifier::default()
             .selection(selection.clone())
+            .min_contribution(1e-3)
             .identify(&frf)
             .unwrap();
+        assert!(id.rejected.is_empty());
         // All three modes are identified exactly (measured 2e-15) ...
         assert!(pole_error(&id.modes, &truth) < TOL_EXACT, "{selection:?}");
         assert_eq!(id.mkr_modes, vec![0, 1], "{selection:?}");
@@ -315,8 +319,29 @@ fn a_mode_outside_the_model_is_reported() {
         let (em, ek, _) = mkr_errors(&id, &(m2.clone(), k2.clone(), r2.clone()));
         assert!(em < 0.03 && ek < 0.01, "M {em:e}, K {ek:e}");
     }
+    // By default the appendage's mode is set aside as insignificant, and
+    // the 2-DOF model is the same.
+    let default = FrfIdentifier::default().identify(&frf).unwrap();
+    assert_eq!(default.modes.len(), 2);
+    assert!(default.warnings.is_empty(), "{:?}", default.warnings);
+    match default.rejected.as_slice() {
+        [
+            RejectedMode {
+                frequency_hz,
+                reason: RejectReason::Insignificant { contribution },
+                ..
+            },
+        ] => {
+            assert!(
+                (frequency_hz / crate::frf::synth::frequency_hz(truth[2].0) - 1.0).abs() < 1e-6
+            );
+            assert!((1e-3..1e-2).contains(contribution), "{contribution}");
+        }
+        other => panic!("{other:?}"),
+    }
     // One mode per output, or a clear error.
     let too_wide = FrfIdentifier::default()
+        .min_contribution(1e-3)
         .selection(ModeSelection::Band(1.0, 20.0))
         .identify(&frf)
         .unwrap_err();
@@ -627,4 +652,43 @@ fn bad_parameters_and_impossible_selections_are_typed_errors() {
         text.contains("MKR needs 2 modes") && text.contains("1 available"),
         "{text}"
     );
+}
+
+#[test]
+fn heavy_noise_with_two_references_sets_noise_poles_aside() {
+    // 10 % noise: some noise poles are stable over several orders. They
+    // carry little of the FRF, or drift out of the physical range when
+    // refined, and are set aside; the three modes remain.
+    let (m, k) = three_storey();
+    let r = non_proportional(&m, &k);
+    let system = (m.clone(), k.clone(), r.clone());
+    let clean = three_storey_frf(&r, &[0, 1], FrfQuantity::Accelerance);
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let (mut worst, mut left, mut insignificant) = (0.0f64, 0, 0);
+    for _ in 0..12 {
+        let mut frf = clean.clone();
+        add_noise(&mut frf, 0.1 * rms(&clean), &mut rng);
+        let id = FrfIdentifier::default().identify(&frf).unwrap();
+        let (em, ek, _) = mkr_errors(&id, &system);
+        worst = worst.max(em).max(ek);
+        assert_eq!(id.mkr_modes.len(), 3);
+        for md in &id.modes {
+            assert!(md.indicators.msv_relative >= 0.01);
+        }
+        for rj in &id.rejected {
+            match rj.reason {
+                RejectReason::LeftPhysicalRange { .. } => left += 1,
+                RejectReason::Insignificant { contribution } => {
+                    assert!(contribution < 0.01);
+                    insignificant += 1
+                }
+            }
+        }
+    }
+    // Measured: worst M or K error 1.9e-2 over the 12 runs (one run at 1 %
+    // noise gives 5.9e-4: a little worse than linear at this level); one
+    // pole of each kind set aside with this seed, so both paths are
+    // exercised.
+    assert!(worst < 0.05, "worst M or K error {worst:e}");
+    assert!(left >= 1 && insignificant >= 1, "{left} {insignificant}");
 }
