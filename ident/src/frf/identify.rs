@@ -24,26 +24,29 @@
 //!    `(0, max_damping_ratio]`, frequency in the band) are the modes.
 //! 3. LSFD fits their residues with lower and upper residual terms on the
 //!    same band and refines the poles ([`Lsfd`]).
-//! 4. A mode whose refined pole left the band or the damping range, or whose
-//!    peak contribution `msv_relative` is below `min_contribution` (default
-//!    1 %: a peak 40 dB below the largest), is set aside as a
-//!    [`RejectedMode`] and LSFD is run again without it: noise poles that
-//!    happen to be stable over a few orders carry little of the FRF and
-//!    drift away when refined.
-//!    Each mode becomes a [`Mode`] as on the time-domain route: `shape` is the
+//! 4. Each mode becomes a [`Mode`] as on the time-domain route: `shape` is the
 //!    dominant left singular vector of its residue matrix (the mode shape of
 //!    `psi l^T`), `residue` is the rank-one part of its *accelerance* residue
 //!    `lambda^2 R_j` (for one reference, the residue itself), `eigenvalue` is
-//!    `exp(lambda dt)` in the pLSCF's z-domain. Indicators: no EMAC, MPC of
-//!    the shape, `cmi = mpc`, and `msv` is the peak of the mode's term in the
-//!    measured FRF, `||A_j||_F / |Re lambda_j|` (`msv_relative` over the
-//!    largest).
-//! 5. As many modes as outputs are chosen for MKR ([`ModeSelection`]); the
+//!    `exp(lambda dt)` in the pLSCF's z-domain, `structural` is true.
+//!    Indicators: no EMAC, MPC of the shape, `cmi = mpc`, and `msv` is the
+//!    peak of the mode's term in the measured FRF, `||A_j||_F / |Re lambda_j|`
+//!    (`msv_relative` over the largest).
+//! 5. A mode whose refined pole left the band or the damping range, or else
+//!    whose `msv_relative` is below `min_contribution` (default 1 %: a peak
+//!    40 dB below the largest), is set aside as a [`RejectedMode`] and LSFD
+//!    is run again without it, from the pLSCF poles of the others: noise
+//!    poles that happen to be stable over a few orders carry little of the
+//!    FRF and drift away when refined.
+//! 6. As many modes as outputs are chosen for MKR ([`ModeSelection`]); the
 //!    others are reported as out-of-model modes with a
 //!    [`Warning::ExtraStructuralModes`].
-//! 6. MKR ([`crate::mkr`]) and the Rayleigh fit, with the same warnings as
+//! 7. MKR ([`crate::mkr`]) and the Rayleigh fit, with the same warnings as
 //!    the time route (polarity, `||W W^T||` consistency, negative Rayleigh
 //!    coefficients).
+//!
+//! Steps 1 to 5 are [`FrfIdentifier::modal`], all of them
+//! [`FrfIdentifier::identify`].
 //!
 //! # From residues to MKR
 //!
@@ -89,9 +92,12 @@ pub enum Weighting {
     /// themselves: right for noise of equal level on every line).
     #[default]
     Uniform,
-    /// Inverse standard deviation of an H1 estimate from the coherence,
-    /// `w^2 = gamma^2 / ((1 - gamma^2) |H|^2)` averaged over the references of
-    /// each output (`1 - gamma^2` floored at `1e-6`). Needs [`Frf::coherence`].
+    /// Inverse standard deviation of an H1 estimate from the coherence:
+    /// `w = 1 / sigma`, `sigma^2` the mean over the references of
+    /// `(1 - gamma^2) |H|^2 / gamma^2` (proportional to the variance of an H1
+    /// estimate, Bendat and Piersol), one weight per output and line;
+    /// `1 - gamma^2` is floored at `1e-6`, a zero coherence gives weight 0.
+    /// Needs [`Frf::coherence`].
     Coherence,
 }
 
@@ -172,7 +178,7 @@ impl Default for FrfIdentifier {
     }
 }
 
-/// Modes identified from FRFs (steps 1 to 4 of the module docs).
+/// Modes identified from FRFs (steps 1 to 5 of the module docs).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FrfModal {
     /// The stabilization diagram.
@@ -184,7 +190,7 @@ pub struct FrfModal {
     pub modes: Vec<Mode>,
     /// LSFD fit; its poles and residues are in the order of `modes`.
     pub lsfd: Lsfd,
-    /// Stable physical pLSCF poles left out of the modal model (step 4).
+    /// Stable physical pLSCF poles left out of the modal model (step 5).
     pub rejected: Vec<RejectedMode>,
 }
 
@@ -519,9 +525,19 @@ impl FrfIdentifier {
         }
     }
 
+    fn lsfd_params(&self) -> LsfdParams {
+        LsfdParams {
+            band_hz: self.band_hz,
+            residuals: self.residuals,
+            weighting: self.weighting,
+            max_iterations: self.pole_iterations,
+        }
+    }
+
     /// Validates the parameters (not the data).
     pub fn check(&self) -> Result<(), FrfIdentError> {
         self.lscf_params().check()?;
+        self.lsfd_params().check()?;
         if !(0.0..1.0).contains(&self.min_contribution) {
             return Err(FrfIdentError::InvalidParams {
                 field: "min_contribution",
@@ -576,12 +592,7 @@ impl FrfIdentifier {
             .iter()
             .map(|p| p.pole)
             .collect();
-        let lsfd_params = LsfdParams {
-            band_hz: self.band_hz,
-            residuals: self.residuals,
-            weighting: self.weighting,
-            max_iterations: self.pole_iterations,
-        };
+        let lsfd_params = self.lsfd_params();
         let mut rejected = Vec::new();
         loop {
             if poles.is_empty() {
@@ -621,6 +632,12 @@ impl FrfIdentifier {
                     .collect()
             };
             if reasons.iter().all(Option::is_none) {
+                // Ascending frequency (refinement may swap close modes).
+                let mut order_idx: Vec<usize> = (0..modes.len()).collect();
+                order_idx.sort_by(|&a, &b| modes[a].frequency_hz.total_cmp(&modes[b].frequency_hz));
+                let modes = order_idx.iter().map(|&j| modes[j].clone()).collect();
+                let mut lsfd = lsfd;
+                lsfd.permute(&order_idx);
                 return Ok(FrfModal {
                     diagram,
                     order,

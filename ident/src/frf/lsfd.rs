@@ -44,7 +44,18 @@
 //! over the poles, the residues and residual terms eliminated (variable
 //! projection, Golub and Pereyra, with Kaufman's Jacobian), by
 //! Levenberg-Marquardt iterations. For white noise of equal level on every
-//! line this is the maximum-likelihood estimate of the poles.
+//! line (uniform weighting), or of known relative level (weights `1 /
+//! sigma`), this is the maximum-likelihood estimate of the poles.
+//!
+//! # Standard errors
+//!
+//! With `J` the projected Jacobian of the poles (`Re lambda_j`,
+//! `Im lambda_j`) at the solution and `s^2 = cost / (equations - unknowns)`
+//! the residual variance, the first-order covariance of the poles is
+//! `s^2 (J^T J)^-1`; [`Lsfd::frequency_std_hz`] and
+//! [`Lsfd::damping_ratio_std`] propagate it to `f = |lambda| / (2 pi)` and
+//! `zeta = -Re(lambda) / |lambda|`. They describe the noise only, not the
+//! bias of a residual approximation or of a mode missing from the model.
 
 use super::identify::{FrfIdentError, Weighting, band_lines, line_weights};
 use super::{Frf, FrfQuantity};
@@ -215,6 +226,25 @@ impl Lsfd {
             .iter()
             .position(|&n| n == power)
             .map(|k| &self.residual_terms[k])
+    }
+
+    /// Reorders the poles (and their residues and standard errors): pole
+    /// `k` becomes the former pole `order[k]`. Panics unless `order` is a
+    /// permutation of the poles.
+    pub fn permute(&mut self, order: &[usize]) {
+        let n = self.poles.len();
+        let mut seen = vec![false; n];
+        assert!(
+            order.len() == n
+                && order
+                    .iter()
+                    .all(|&j| j < n && !std::mem::replace(&mut seen[j], true)),
+            "Lsfd::permute: not a permutation of the {n} poles"
+        );
+        self.poles = order.iter().map(|&j| self.poles[j]).collect();
+        self.residues = order.iter().map(|&j| self.residues[j].clone()).collect();
+        self.frequency_std_hz = order.iter().map(|&j| self.frequency_std_hz[j]).collect();
+        self.damping_ratio_std = order.iter().map(|&j| self.damping_ratio_std[j]).collect();
     }
 
     /// Negates every residue and residual term (inverted input polarity).

@@ -135,6 +135,13 @@ fn paper_frame_on_an_analyzer_grid_gives_back_m_k_and_damping() {
     // The diagram and the order it chose.
     assert_eq!(id.diagram.stable_physical_at(id.order).len(), 2);
     assert_eq!(id.diagram.max_order, 32);
+    // A fixed order gives the same model once the poles are refined.
+    let fixed = FrfIdentifier::default()
+        .order(FrfOrder::Fixed(12))
+        .identify(&frf)
+        .unwrap();
+    assert_eq!((fixed.order, fixed.diagram.max_order), (12, 12));
+    assert_exact(&fixed, &system, &truth, "order 12");
 }
 
 #[test]
