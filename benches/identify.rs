@@ -6,9 +6,9 @@
 use std::path::Path;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use frameid::experiment::campaign_records;
-use frameid::scenario::LoadedScenario;
 use ident::pipeline::StabilizationCriteria;
+use ident::refine::SecondOrder;
+use study::LoadedScenario;
 
 fn bench_identify(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/paper-case1.toml");
@@ -20,24 +20,24 @@ fn bench_identify(c: &mut Criterion) {
         let mut s = loaded.scenario.clone();
         s.campaign.acquisition = acquisition;
         let campaign = s.simulator(loaded.model.clone()).unwrap().simulate(1);
-        let records = campaign_records(&campaign);
+        let records = campaign.to_ident().records;
         let identifier = s.identifier();
         c.bench_function(&format!("identify 10-hit campaign ({label})"), |b| {
             b.iter(|| identifier.identify(&records, campaign.dt_s).unwrap())
         });
         let id = identifier.identify(&records, campaign.dt_s).unwrap();
         let refiner = s.refiner();
-        let initial = frameid::experiment::initial_model(&id);
+        let initial = SecondOrder::from_identification(&id);
         c.bench_function(
             &format!("refine 10-hit campaign by maximum likelihood ({label})"),
             |b| b.iter(|| refiner.refine(&records, campaign.dt_s, &initial).unwrap()),
         );
         if label.starts_with("analyzer") {
-            let truth = frameid::experiment::TrueModel::new(loaded.model.clone()).unwrap();
+            let truth = study::experiment::TrueModel::new(loaded.model.clone()).unwrap();
             let simulator = s.simulator(loaded.model.clone()).unwrap();
             c.bench_function("Cramér–Rao bound of a 10-hit campaign (analyzer)", |b| {
                 b.iter(|| {
-                    frameid::experiment::cramer_rao_bound(
+                    study::experiment::cramer_rao_bound(
                         &simulator,
                         &refiner,
                         s.acquisition_intersample(),

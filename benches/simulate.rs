@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use frameid::scenario::LoadedScenario;
+use study::LoadedScenario;
 
 fn scenario(name: &str) -> LoadedScenario {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -4,9 +4,9 @@
 use std::path::Path;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use frameid::experiment::TrueModel;
-use frameid::scenario::LoadedScenario;
-use frameid::sweep::{self, Plan};
+use study::LoadedScenario;
+use study::experiment::TrueModel;
+use study::sweep::{self, Plan};
 
 fn bench_sweep(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/paper-case1.toml");
@@ -25,7 +25,7 @@ fn bench_sweep(c: &mut Criterion) {
     group.sample_size(10);
     for threads in [1, 2] {
         group.bench_function(format!("{threads} thread(s)"), |b| {
-            b.iter(|| sweep::run(&plan, &truth, None, threads, false).unwrap())
+            b.iter(|| sweep::run(&plan, &truth, None, threads, &|| {}).unwrap())
         });
     }
     group.finish();

@@ -3,9 +3,22 @@
 
 use std::path::PathBuf;
 
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use ident::Intersample;
+use study::scenario::ParametrizationSetting;
 
-use crate::scenario::ParametrizationSetting;
+/// Parses `zoh` or `bandlimited`, listing both in `--help`.
+fn intersample_parser() -> impl TypedValueParser<Value = Intersample> {
+    PossibleValuesParser::new(Intersample::ALL.map(Intersample::name))
+        .map(|s| s.parse().expect("a possible value"))
+}
+
+/// Parses `full` or `shear-frame`, listing both in `--help`.
+fn parametrization_parser() -> impl TypedValueParser<Value = ParametrizationSetting> {
+    PossibleValuesParser::new(ParametrizationSetting::ALL.map(ParametrizationSetting::name))
+        .map(|s| s.parse().expect("a possible value"))
+}
 
 /// frameid: simulate hammer tests on shear frames, identify M, K and R from
 /// records, and measure how well they are recovered.
@@ -43,6 +56,17 @@ pub enum RecordFormat {
     UffBinary,
 }
 
+impl RecordFormat {
+    /// The record layout written.
+    pub fn layout(self) -> records::Format {
+        match self {
+            RecordFormat::Csv => records::Format::Csv { delimiter: b',' },
+            RecordFormat::Uff => records::Format::Uff58Ascii,
+            RecordFormat::UffBinary => records::Format::Uff58Binary,
+        }
+    }
+}
+
 /// Acquisition model override for `simulate`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum AcquisitionArg {
@@ -76,24 +100,6 @@ pub struct SimulateArgs {
     pub acquisition: Option<AcquisitionArg>,
 }
 
-/// Intersample assumption for the discrete-to-continuous conversion.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum IntersampleArg {
-    /// Band-limited records (spectrum analyzer): impulse invariance
-    Bandlimited,
-    /// Input held over each sample (the paper's assumption)
-    Zoh,
-}
-
-impl From<IntersampleArg> for ident::Intersample {
-    fn from(a: IntersampleArg) -> Self {
-        match a {
-            IntersampleArg::Bandlimited => ident::Intersample::Bandlimited,
-            IntersampleArg::Zoh => ident::Intersample::Zoh,
-        }
-    }
-}
-
 #[derive(Debug, Args)]
 pub struct IdentifyArgs {
     /// Record files, one per hit (CSV or UFF58, detected from the content)
@@ -120,9 +126,9 @@ pub struct IdentifyArgs {
     /// OKID observer order (default: automatic, BIC)
     #[arg(long)]
     pub observer_order: Option<usize>,
-    /// Intersample assumption
-    #[arg(long, value_enum, default_value_t = IntersampleArg::Bandlimited)]
-    pub intersample: IntersampleArg,
+    /// Intersample assumption: `bandlimited` for analyzer records (impulse invariance), `zoh` for inputs held over each sample (the paper's assumption)
+    #[arg(long, default_value_t = Intersample::Bandlimited, value_parser = intersample_parser())]
+    pub intersample: Intersample,
     /// Sampling rate for records without a time column, Hz
     #[arg(long)]
     pub fs: Option<f64>,
@@ -142,7 +148,7 @@ pub struct IdentifyArgs {
     #[arg(long, conflicts_with = "realization")]
     pub refine: bool,
     /// Parameters of the refinement: symmetric M, K, damping (`full`) or one mass per floor and one spring and dashpot per storey plus ground dashpots (`shear-frame`)
-    #[arg(long, value_enum, default_value_t = ParametrizationSetting::Full, requires = "refine")]
+    #[arg(long, default_value_t = ParametrizationSetting::Full, value_parser = parametrization_parser(), requires = "refine")]
     pub parametrization: ParametrizationSetting,
 }
 

@@ -1,17 +1,10 @@
-//! frameid harness: scenarios, simulated campaigns on disk, identification
-//! runs, sweeps and reports. The `frameid` binary is thin glue over this
-//! library; the numerics live in the `sim` and `ident` crates.
+//! The `frameid` command line: clap arguments ([`cli`]), one module per
+//! subcommand ([`commands`]) that turns them into library calls, and the
+//! rendering of outcomes as text or JSON ([`output`]). The work is done by
+//! the libraries beside it: `records` (files, channel selection, quality
+//! checks), `ident` (identification), `sim` (simulation), `study`
+//! (scenarios, sweeps, scoring) and `reports` (HTML).
 
 pub mod cli;
 pub mod commands;
-pub mod experiment;
-pub mod format;
-pub mod fsutil;
-pub mod quality;
-pub mod records;
-pub mod report;
-pub mod representative;
-pub mod scenario;
-pub mod sweep;
-pub mod truth;
-pub mod uncertainty;
+pub mod output;

@@ -9,13 +9,15 @@ use frameid::commands;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
     let result = match cli.command.unwrap_or(Command::Study(StudyArgs::default())) {
-        Command::Study(args) => commands::study::run(&args),
-        Command::Simulate(args) => commands::simulate::run(&args),
-        Command::Identify(args) => commands::identify::run(&args),
-        Command::Sweep(args) => commands::sweep::run(&args),
-        Command::Merge(args) => commands::sweep::merge(&args),
-        Command::Report(args) => commands::report::run(&args),
+        Command::Study(args) => commands::study::run(&args, &mut out),
+        Command::Simulate(args) => commands::simulate::run(&args, &mut out),
+        Command::Identify(args) => commands::identify::run(&args, &mut out),
+        Command::Sweep(args) => commands::sweep::run(&args, &mut out),
+        Command::Merge(args) => commands::sweep::merge(&args, &mut out),
+        Command::Report(args) => commands::report::run(&args, &mut out),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,6 +1,6 @@
 // Shared by the fuzz targets: what an accepted record must satisfy.
 
-use frameid::records::RecordFile;
+use records::RecordFile;
 
 pub fn check_clean(rec: &RecordFile) {
     assert!(rec.dt_s.is_finite() && rec.dt_s > 0.0);

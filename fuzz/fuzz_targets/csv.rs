@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use frameid::records::{ReadOptions, parse_csv};
+use records::{ReadOptions, parse_csv};
 use libfuzzer_sys::fuzz_target;
 
 mod common;

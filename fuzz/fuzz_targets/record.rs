@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use frameid::records::{ReadOptions, parse_record};
+use records::{ReadOptions, parse_record};
 use libfuzzer_sys::fuzz_target;
 
 mod common;

@@ -5,8 +5,8 @@
 
 use std::path::Path;
 
-use frameid::records::{
-    ReadOptions, RecordError, RecordFile, Uff58Encoding, encode_csv, encode_uff58, parse_record,
+use records::{
+    ReadOptions, RecordError, RecordFile, Uff58Encoding, Csv, FileFormat, Uff58, parse_record,
 };
 use libfuzzer_sys::fuzz_target;
 
@@ -45,7 +45,7 @@ fuzz_target!(|data: &[u8]| {
     };
     common::check_clean(&rec);
     for enc in [Uff58Encoding::Binary, Uff58Encoding::AsciiFullPrecision] {
-        match encode_uff58(&rec, enc) {
+        match Uff58(enc).encode(&rec) {
             Ok(bytes) => {
                 let back = parse_record(&bytes, Path::new("back.uff"), &opts)
                     .unwrap_or_else(|e| panic!("own UFF output refused: {e}"));
@@ -55,10 +55,14 @@ fuzz_target!(|data: &[u8]| {
             Err(e) => panic!("{e}"),
         }
     }
-    match encode_csv(&rec) {
-        Ok(text) => {
-            let back = parse_record(text.as_bytes(), Path::new("back.csv"), &opts)
-                .unwrap_or_else(|e| panic!("own CSV output refused: {e}\n{text}"));
+    match Csv.encode(&rec) {
+        Ok(bytes) => {
+            let back = parse_record(&bytes, Path::new("back.csv"), &opts).unwrap_or_else(|e| {
+                panic!(
+                    "own CSV output refused: {e}\n{}",
+                    String::from_utf8_lossy(&bytes)
+                )
+            });
             same(&rec, &back, false, false);
         }
         Err(RecordError::InvalidRecord { .. }) => {}

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use frameid::records::{ReadOptions, parse_uff58};
+use records::{ReadOptions, parse_uff58};
 use libfuzzer_sys::fuzz_target;
 
 mod common;

@@ -69,8 +69,10 @@
 //! assert!((result.mass[(0, 0)] - 0.2913).abs() < 1e-3);
 //! ```
 
+pub mod campaign;
 pub mod era;
 pub mod frf;
+pub mod jackknife;
 pub mod linalg;
 pub mod mkr;
 pub mod modal;
@@ -83,8 +85,10 @@ pub mod statespace;
 
 #[cfg(test)]
 mod testutil;
+pub use campaign::Campaign;
 pub use era::{Correlation, Era, EraError, EraParams, ModelOrder};
 pub use frf::{Frf, FrfError, FrfQuantity};
+pub use jackknife::{Jackknife, UncertaintyError, jackknife};
 pub use mkr::{CollocatedPair, Mkr, MkrError, MkrParams, PolarityPolicy};
 pub use modal::{Indicators, Intersample, ModalModel, ModalParams, Mode, StructuralRule};
 pub use okid::{ObserverOrder, Okid, OkidError, OkidParams};

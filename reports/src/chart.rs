@@ -1,21 +1,18 @@
-//! Charts: a small declarative description drawn with plotters' SVG backend
-//! into a `String`, then turned into inline SVG whose parts can be found.
+//! Charts: a small declarative description drawn with plotters into inline
+//! SVG whose parts can be found.
 //!
 //! Plotters draws primitives only (`<line>`, `<polyline>`, `<circle>`...).
 //! To make a chart testable, every logical part (title, axes, axis labels,
 //! each data layer, the legend and its entries) is wrapped in a `<g>` with a
-//! class and `data-*` attributes. Group boundaries are sent through the
-//! backend as sentinel pixels at an x coordinate no chart uses; the
-//! post-processing replaces them by `<g ...>` and `</g>`, strips the
-//! `xmlns` attribute and the fixed size (the page scales charts with CSS),
-//! and adds a `<title>`.
+//! class and `data-*` attributes. The drawing backend is this crate's
+//! [`SvgCanvas`]: group boundaries are plotters elements drawn between the
+//! parts, and the canvas writes the `<g>` elements, the root `<svg>` and its
+//! `<title>` itself (see [`crate::svg`]).
 //!
 //! Data are mapped to pixels here rather than by plotters so that long
 //! records can be reduced to a min/max envelope per pixel column (peaks
 //! survive), non-finite values are skipped and values a log axis cannot show
 //! are clamped, each with a note for the caption.
-
-use std::fmt::Write as _;
 
 use std::collections::BTreeSet;
 use std::ops::Range;
@@ -27,7 +24,8 @@ use plotters::style::FontTransform;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::ReportError;
-use crate::format::{escape, power_of_ten, trim};
+use crate::format::{power_of_ten, trim};
+use crate::svg::{FONT_SCALE, Group, GroupMark, SvgCanvas, SvgError};
 
 /// An RGB colour.
 pub type Rgb = (u8, u8, u8);
@@ -44,14 +42,7 @@ pub mod palette {
     pub const DARK: Rgb = (0x22, 0x22, 0x22);
 }
 
-/// x of the sentinel pixels that mark group boundaries; far outside any
-/// chart, so plotters never draws there itself.
-const SENTINEL_X: i32 = -7919;
-const SENTINEL_PREFIX: &str = "<rect x=\"-7919\" y=\"";
-
-/// Plotters writes `font-size = size / 1.24` into SVG; sizes below are in
-/// SVG pixels.
-const FONT_SCALE: f64 = 1.24;
+// Font sizes below are in SVG pixels; plotters gets them times FONT_SCALE.
 const TITLE_PX: f64 = 14.0;
 const LABEL_PX: f64 = 12.0;
 const TICK_PX: f64 = 11.0;
@@ -710,25 +701,34 @@ impl Ranged for PlotRange {
     }
 }
 
-type Root<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+type Root<'a> = DrawingArea<SvgCanvas<'a>, Shift>;
 
-/// Group boundaries, sent through the backend as sentinel pixels.
-#[derive(Default)]
-struct Groups {
-    attrs: Vec<String>,
+/// Opens a group: what is drawn until the matching [`close`] goes into it.
+fn open(root: &Root<'_>, group: Group) -> Result<(), String> {
+    root.draw(&GroupMark::Open(group))
+        .map_err(|e| e.to_string())
 }
 
-impl Groups {
-    fn open(&mut self, root: &Root<'_>, attrs: String) -> Result<(), String> {
-        self.attrs.push(attrs);
-        let id = self.attrs.len() as i32;
-        root.draw_pixel((SENTINEL_X, id), &BLACK)
-            .map_err(|e| e.to_string())
-    }
+/// Closes the innermost open group.
+fn close(root: &Root<'_>) -> Result<(), String> {
+    root.draw(&GroupMark::Close).map_err(|e| e.to_string())
+}
 
-    fn close(&mut self, root: &Root<'_>) -> Result<(), String> {
-        root.draw_pixel((SENTINEL_X, 0), &BLACK)
-            .map_err(|e| e.to_string())
+/// The group of one data layer.
+fn series(key: &str, role: &str, points: usize, dashed: bool) -> Group {
+    let group = Group::class("series")
+        .attr("data-series", key)
+        .attr("data-role", role)
+        .attr("data-points", points);
+    dash(group, dashed)
+}
+
+/// Dashes the lines of a group (its elements inherit the attribute).
+fn dash(group: Group, dashed: bool) -> Group {
+    if dashed {
+        group.attr("stroke-dasharray", "6 4")
+    } else {
+        group
     }
 }
 
@@ -851,14 +851,6 @@ fn legend_rows(entries: &[Entry], width: i32) -> Vec<Vec<usize>> {
     rows
 }
 
-fn dash_attr(dashed: bool) -> &'static str {
-    if dashed {
-        " stroke-dasharray=\"6 4\""
-    } else {
-        ""
-    }
-}
-
 fn marker_element(
     root: &Root<'_>,
     (x, y): (i32, i32),
@@ -935,10 +927,9 @@ pub fn draw(chart: &Chart) -> Result<Drawn, ReportError> {
         chart: chart.id.clone(),
         detail,
     };
-    let mut raw = String::new();
-    let mut groups = Groups::default();
+    let mut svg = String::new();
     let mut tally = Tally::default();
-    draw_into(chart, &mut raw, &mut groups, &mut tally).map_err(fail)?;
+    draw_into(chart, &mut svg, &mut tally).map_err(fail)?;
 
     let mut notes = vec![];
     let (skipped, clamped) = (tally.skipped.len(), tally.clamped.len());
@@ -959,34 +950,34 @@ pub fn draw(chart: &Chart) -> Result<Drawn, ReportError> {
             ));
         }
     }
-    Ok(Drawn {
-        svg: finish(&raw, &groups.attrs, chart),
-        notes,
-    })
+    Ok(Drawn { svg, notes })
 }
 
-fn draw_into(
-    chart: &Chart,
-    buf: &mut String,
-    groups: &mut Groups,
-    tally: &mut Tally,
-) -> Result<(), String> {
-    let e = |e: DrawingAreaErrorKind<std::io::Error>| e.to_string();
+/// Draws the chart as an `svg.chart` element into `buf`.
+fn draw_into(chart: &Chart, buf: &mut String, tally: &mut Tally) -> Result<(), String> {
+    let e = |e: DrawingAreaErrorKind<SvgError>| e.to_string();
     let (w, h) = chart.size;
-    let root = SVGBackend::with_string(buf, (w, h)).into_drawing_area();
+    let root_attrs = Group::class("chart")
+        .attr("id", format_args!("{}-svg", chart.id))
+        .attr("data-chart", &chart.kind)
+        .attr("role", "img")
+        .attr("aria-labelledby", format_args!("{}-title", chart.id));
+    let title_id = format!("{}-title", chart.id);
+    let root =
+        SvgCanvas::new(buf, (w, h), &root_attrs, &title_id, &chart.title).into_drawing_area();
     root.fill(&WHITE).map_err(e)?;
 
     // Title, shrunk to fit.
     let avail = w as f64 - 16.0;
     let px = (avail / (text_width(&chart.title, 1.0) * 1.06).max(1e-9)).clamp(8.0, TITLE_PX);
-    groups.open(&root, "class=\"chart-title\"".into())?;
+    open(&root, Group::class("chart-title"))?;
     let body = root
         .titled(
             &clean(&chart.title),
             font(px).style(FontStyle::Bold).color(&rgb(palette::DARK)),
         )
         .map_err(e)?;
-    groups.close(&root)?;
+    close(&root)?;
 
     // Legend below the plot when there is more than one entry.
     let entries = legend_entries(&chart.layers);
@@ -1023,7 +1014,7 @@ fn draw_into(
         .build_cartesian_2d(x_range, y_range)
         .map_err(e)?;
 
-    groups.open(&root, "class=\"axes\"".into())?;
+    open(&root, Group::class("axes"))?;
     let xf = |v: &f64| clean(&chart.x.label_at(*v));
     let yf = |v: &f64| clean(&chart.y.label_at(*v));
     cc.configure_mesh()
@@ -1035,7 +1026,7 @@ fn draw_into(
         .y_label_formatter(&yf)
         .draw()
         .map_err(e)?;
-    groups.close(&root)?;
+    close(&root)?;
 
     let plot = cc.plotting_area().clone();
     let (px_range, py_range) = plot.get_pixel_range();
@@ -1043,15 +1034,15 @@ fn draw_into(
 
     // Axis labels.
     let label_style = font(LABEL_PX).color(&RGBColor(0x22, 0x22, 0x22));
-    groups.open(&root, "class=\"axis-label\" data-axis=\"x\"".into())?;
+    open(&root, Group::class("axis-label").attr("data-axis", "x"))?;
     root.draw(&Text::new(
         clean(&chart.x.label),
         ((px_range.start + px_range.end) / 2, py_range.end + 22),
         label_style.clone().pos(Pos::new(HPos::Center, VPos::Top)),
     ))
     .map_err(e)?;
-    groups.close(&root)?;
-    groups.open(&root, "class=\"axis-label\" data-axis=\"y\"".into())?;
+    close(&root)?;
+    open(&root, Group::class("axis-label").attr("data-axis", "y"))?;
     root.draw(&Text::new(
         clean(&chart.y.label),
         (4, (py_range.start + py_range.end) / 2),
@@ -1060,14 +1051,14 @@ fn draw_into(
             .pos(Pos::new(HPos::Center, VPos::Top)),
     ))
     .map_err(e)?;
-    groups.close(&root)?;
+    close(&root)?;
 
     let to_px = |u: (f64, f64)| plot.map_coordinate(&u);
 
     // Axis break between 0 % and the log-scaled noise levels.
     if let Some(u) = chart.x.break_at() {
         let (bx, by) = to_px((u, chart.y.lo));
-        groups.open(&root, "class=\"axis-break\"".into())?;
+        open(&root, Group::class("axis-break"))?;
         let axis = RGBColor(0x55, 0x55, 0x55).stroke_width(1);
         root.draw(&Rectangle::new(
             [(bx - 4, by - 6), (bx + 4, by + 6)],
@@ -1081,13 +1072,12 @@ fn draw_into(
             ))
             .map_err(e)?;
         }
-        groups.close(&root)?;
+        close(&root)?;
     }
 
     for layer in &chart.layers {
         let sid = tally.series(&layer.key);
         let color = rgb(layer.color);
-        let key = escape(&layer.key);
         let role = layer.role();
         match &layer.kind {
             LayerKind::Line {
@@ -1132,13 +1122,7 @@ fn draw_into(
                 if !current.is_empty() {
                     runs.push(current);
                 }
-                groups.open(
-                    &root,
-                    format!(
-                        "class=\"series\" data-series=\"{key}\" data-role=\"{role}\" data-points=\"{n}\"{}",
-                        dash_attr(*dashed)
-                    ),
-                )?;
+                open(&root, series(&layer.key, role, n, *dashed))?;
                 let style = color.stroke_width(*width);
                 for run in runs {
                     let run = if *env { envelope(&run, columns) } else { run };
@@ -1146,7 +1130,7 @@ fn draw_into(
                         root.draw(&PathElement::new(run, style)).map_err(e)?;
                     }
                 }
-                groups.close(&root)?;
+                close(&root)?;
             }
             LayerKind::Markers {
                 points,
@@ -1162,17 +1146,11 @@ fn draw_into(
                         pixels.push(to_px((u, v)));
                     }
                 }
-                groups.open(
-                    &root,
-                    format!(
-                        "class=\"series\" data-series=\"{key}\" data-role=\"{role}\" data-points=\"{}\"",
-                        pixels.len()
-                    ),
-                )?;
+                open(&root, series(&layer.key, role, pixels.len(), false))?;
                 for p in pixels {
                     marker_element(&root, p, *shape, *filled, *size, layer.color)?;
                 }
-                groups.close(&root)?;
+                close(&root)?;
             }
             LayerKind::Band { x, lo, hi } => {
                 let mut runs: Vec<Vec<(i32, i32, i32)>> = vec![];
@@ -1206,12 +1184,7 @@ fn draw_into(
                 if !current.is_empty() {
                     runs.push(current);
                 }
-                groups.open(
-                    &root,
-                    format!(
-                        "class=\"series\" data-series=\"{key}\" data-role=\"{role}\" data-points=\"{n}\""
-                    ),
-                )?;
+                open(&root, series(&layer.key, role, n, false))?;
                 for run in runs {
                     if run.len() == 1 {
                         let (px, pa, pb) = run[0];
@@ -1228,20 +1201,14 @@ fn draw_into(
                             .map_err(e)?;
                     }
                 }
-                groups.close(&root)?;
+                close(&root)?;
             }
             LayerKind::VRule { x, label } => {
                 let Some(u) = chart.x.map(*x).coord() else {
                     continue;
                 };
                 let (px, _) = to_px((u, chart.y.lo));
-                groups.open(
-                    &root,
-                    format!(
-                        "class=\"series\" data-series=\"{key}\" data-role=\"{role}\" data-points=\"1\"{}",
-                        dash_attr(true)
-                    ),
-                )?;
+                open(&root, series(&layer.key, role, 1, true))?;
                 root.draw(&PathElement::new(
                     vec![(px, py_range.start), (px, py_range.end)],
                     color.stroke_width(1),
@@ -1257,20 +1224,14 @@ fn draw_into(
                     ))
                     .map_err(e)?;
                 }
-                groups.close(&root)?;
+                close(&root)?;
             }
             LayerKind::HRule { y, label } => {
                 let Some(v) = chart.y.map(*y).coord() else {
                     continue;
                 };
                 let (_, py) = to_px((chart.x.lo, v));
-                groups.open(
-                    &root,
-                    format!(
-                        "class=\"series\" data-series=\"{key}\" data-role=\"{role}\" data-points=\"1\"{}",
-                        dash_attr(true)
-                    ),
-                )?;
+                open(&root, series(&layer.key, role, 1, true))?;
                 root.draw(&PathElement::new(
                     vec![(px_range.start, py), (px_range.end, py)],
                     color.stroke_width(1),
@@ -1286,13 +1247,13 @@ fn draw_into(
                     ))
                     .map_err(e)?;
                 }
-                groups.close(&root)?;
+                close(&root)?;
             }
         }
     }
 
     if show_legend {
-        groups.open(&root, "class=\"legend\"".into())?;
+        open(&root, Group::class("legend"))?;
         let top = body.get_pixel_range().1.end - legend_h + 2;
         for (r, row) in rows.iter().enumerate() {
             let total: i32 = row.iter().map(|&i| entry_width(&entries[i])).sum();
@@ -1301,12 +1262,9 @@ fn draw_into(
             for &i in row {
                 let entry = &entries[i];
                 let c = rgb(entry.color);
-                groups.open(
+                open(
                     &root,
-                    format!(
-                        "class=\"legend-entry\" data-series=\"{}\"",
-                        escape(&entry.key)
-                    ),
+                    Group::class("legend-entry").attr("data-series", &entry.key),
                 )?;
                 if entry.band {
                     root.draw(&Rectangle::new(
@@ -1316,13 +1274,13 @@ fn draw_into(
                     .map_err(e)?;
                 }
                 if let Some(dashed) = entry.line {
-                    groups.open(&root, format!("class=\"legend-line\"{}", dash_attr(dashed)))?;
+                    open(&root, dash(Group::class("legend-line"), dashed))?;
                     root.draw(&PathElement::new(
                         vec![(x, y), (x + LEGEND_SAMPLE, y)],
                         c.stroke_width(2),
                     ))
                     .map_err(e)?;
-                    groups.close(&root)?;
+                    close(&root)?;
                 }
                 if let Some((shape, filled, mc)) = entry.marker {
                     marker_element(&root, (x + LEGEND_SAMPLE / 2, y), shape, filled, 3, mc)?;
@@ -1335,71 +1293,14 @@ fn draw_into(
                         .pos(Pos::new(HPos::Left, VPos::Center)),
                 ))
                 .map_err(e)?;
-                groups.close(&root)?;
+                close(&root)?;
                 x += entry_width(entry);
             }
         }
-        groups.close(&root)?;
+        close(&root)?;
     }
     root.present().map_err(e)?;
     Ok(())
-}
-
-/// Turns plotters' SVG into inline SVG: `<svg>` without `xmlns` and fixed
-/// size, a `<title>`, and `<g>` groups in place of the sentinels.
-fn finish(raw: &str, groups: &[String], chart: &Chart) -> String {
-    let mut out = String::with_capacity(raw.len() + groups.len() * 64);
-    let id = escape(&chart.id);
-    let mut depth = 0usize;
-    let mut rest = raw;
-    while let Some(start) = rest.find('<') {
-        out.push_str(&rest[..start]);
-        let Some(len) = rest[start..].find('>') else {
-            break;
-        };
-        let tag = &rest[start..=start + len];
-        rest = &rest[start + len + 1..];
-        if tag.starts_with("<svg") {
-            let _ = write!(
-                out,
-                "<svg class=\"chart\" id=\"{id}-svg\" data-chart=\"{}\" viewBox=\"0 0 {} {}\" role=\"img\" aria-labelledby=\"{id}-title\"><title id=\"{id}-title\">{}</title>",
-                escape(&chart.kind),
-                chart.size.0,
-                chart.size.1,
-                escape(&chart.title)
-            );
-        } else if tag.starts_with("</svg") {
-            for _ in 0..depth {
-                out.push_str("</g>");
-            }
-            depth = 0;
-            out.push_str(tag);
-        } else if let Some(rest_of_tag) = tag.strip_prefix(SENTINEL_PREFIX) {
-            let id: usize = rest_of_tag
-                .split('"')
-                .next()
-                .and_then(|s| s.parse().ok())
-                .unwrap_or(0);
-            match groups.get(id.wrapping_sub(1)) {
-                Some(attrs) if id > 0 => {
-                    let _ = write!(out, "<g {attrs}>");
-                    depth += 1;
-                }
-                _ => {
-                    if depth > 0 {
-                        out.push_str("</g>");
-                        depth -= 1;
-                    }
-                }
-            }
-            // Drop the newline plotters wrote after the sentinel.
-            rest = rest.strip_prefix('\n').unwrap_or(rest);
-        } else {
-            out.push_str(tag);
-        }
-    }
-    out.push_str(rest);
-    out
 }
 
 #[cfg(test)]

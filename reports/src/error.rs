@@ -2,20 +2,34 @@ use std::path::PathBuf;
 
 /// Why a report could not be rendered or written.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ReportError {
     /// The input contradicts itself so that it cannot be drawn honestly, e.g.
     /// a per-noise-level vector whose length differs from the number of
     /// noise levels.
     #[error("inconsistent report data in {location}: {detail}")]
-    Inconsistent { location: String, detail: String },
-    /// The chart library failed (not expected with the in-memory SVG
-    /// backend).
+    Inconsistent {
+        /// Where in the report, e.g. the study, panel and quantity.
+        location: String,
+        /// What does not agree with what.
+        detail: String,
+    },
+    /// Drawing a chart failed. No input is expected to cause this (odd
+    /// values are drawn as well as they can be and noted); it points to a
+    /// bug of this crate, such as chart groups that do not nest.
     #[error("drawing chart {chart}: {detail}")]
-    Chart { chart: String, detail: String },
+    Chart {
+        /// Id of the chart.
+        chart: String,
+        /// The drawing error.
+        detail: String,
+    },
     /// Writing the HTML file failed; no partial file is left at `path`.
     #[error("writing report to {path}: {source}")]
     Io {
+        /// The file that was to be written.
         path: PathBuf,
+        /// The I/O error.
         #[source]
         source: std::io::Error,
     },

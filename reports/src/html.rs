@@ -16,6 +16,13 @@ macro_rules! w {
     };
 }
 
+/// The style sheet. The identified-against-truth tables (`.tables`) flow in
+/// a wrapping row, each as wide as its columns need, rather than in grid
+/// tracks of a fixed minimum width: tracks narrower than a table hid its
+/// relative errors behind a scrollbar (see the test
+/// `comparison_tables_take_the_width_their_columns_need`). A table wider
+/// than the page column shrinks to it and scrolls; on narrow screens the
+/// cells get less padding and the headers may wrap.
 const CSS: &str = r#"
 :root { --fg: #1b1b1b; --muted: #555; --rule: #cfcfcf; --accent: #0072b2; --warn: #d55e00; }
 * { box-sizing: border-box; }
@@ -44,7 +51,13 @@ table.setup td { overflow-wrap: anywhere; }
 figure.chart { margin: 0 0 .8rem; }
 figure.chart.wide { max-width: 900px; }
 figure.chart.medium { max-width: 720px; }
-.tables { display: grid; grid-template-columns: repeat(auto-fill, minmax(330px, 1fr)); gap: 0 1.5rem; }
+.tables { display: flex; flex-wrap: wrap; align-items: flex-start; gap: 0 1.5rem; }
+.tables > .table-wrap { flex: 0 1 auto; min-width: 0; max-width: 100%; }
+table.comparison th, table.comparison td { padding-left: .45rem; padding-right: .45rem; }
+@media (max-width: 600px) {
+  table.comparison th, table.comparison td { padding-left: .3rem; padding-right: .3rem; }
+  table.comparison thead th { white-space: normal; }
+}
 figure.chart svg { display: block; width: 100%; height: auto; }
 figcaption { font-size: .8rem; color: var(--muted); margin-top: .15rem; }
 .placeholder { border: 1px dashed var(--rule); color: var(--muted); padding: 1rem; font-size: .85rem; align-self: center; }

@@ -2,7 +2,7 @@
 //!
 //! [`render`] turns a [`Report`] (see [`model`]) into one HTML file that an
 //! engineer opens offline and prints: inline CSS, inline SVG charts drawn
-//! with plotters' SVG backend, no script and nothing fetched. Per study it
+//! with plotters, no script and nothing fetched. Per study it
 //! shows the set-up, one representative campaign (force and acceleration
 //! records, Hankel singular values, stabilization diagram, mode shapes,
 //! FRFs), identified values against the truth with relative errors, and the
@@ -43,12 +43,15 @@
 //!   carry `data-rel-error` (full precision, or `none`), `table.failures`
 //!   (`data-panel`), `table.efficiency`.
 
+#![deny(missing_docs)]
+
 mod chart;
 mod error;
 mod figures;
 mod format;
 mod html;
 pub mod model;
+mod svg;
 mod validate;
 
 use std::fs;

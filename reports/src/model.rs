@@ -16,10 +16,15 @@ use serde::{Deserialize, Serialize};
 /// A whole report: one HTML file, one or more studies.
 #[derive(Serialize, Deserialize, Debug, Clone)]
 pub struct Report {
+    /// Title of the document (`<title>` and heading); "frameid report" when
+    /// blank.
     pub title: String,
+    /// Version of frameid that ran the studies, shown in the header and in
+    /// every set-up table.
     pub frameid_version: String,
     /// The command line that produced the report, shown verbatim.
     pub command: String,
+    /// The studies, in the order they are shown.
     pub studies: Vec<Study>,
 }
 
@@ -27,20 +32,29 @@ pub struct Report {
 /// noise levels.
 #[derive(Serialize, Deserialize, Debug, Clone)]
 pub struct Study {
+    /// Name of the study (its heading and `data-study`).
     pub name: String,
+    /// A sentence or two on what the study shows; may be empty.
     pub description: String,
+    /// Seed of the random numbers of the study, shown in the set-up table so
+    /// that the study can be repeated.
     pub seed: u64,
     /// Pre-formatted label/value rows: geometry, masses, stiffnesses,
     /// damping, hits, noise levels, sampling, intersample assumption...
     pub setup: Vec<SetupRow>,
+    /// One campaign shown in detail; `None` when the study has none (the
+    /// report says so).
     pub representative: Option<Representative>,
+    /// The accuracy against noise from the Monte Carlo sweep.
     pub accuracy: Accuracy,
 }
 
 /// One row of the set-up table, already formatted by the caller.
 #[derive(Serialize, Deserialize, Debug, Clone)]
 pub struct SetupRow {
+    /// What the row is about, e.g. "Sampling".
     pub label: String,
+    /// Its value, with units, shown as given.
     pub value: String,
 }
 
@@ -66,12 +80,16 @@ pub struct Representative {
     pub hankel_singular_values: Vec<f64>,
     /// The chosen state dimension.
     pub order: usize,
+    /// The identified modes.
     pub modes: Vec<ModeShape>,
+    /// The poles of the stabilization diagram, of every order tried.
     pub stabilization: Vec<StabilizationPoint>,
     /// One per output (floor).
     pub frf: Vec<Frf>,
     /// f, xi, M, K, MKR damping, Rayleigh damping.
     pub tables: Vec<ComparisonTable>,
+    /// Warnings about this campaign's identification, shown above its
+    /// figures.
     pub warnings: Vec<String>,
     /// Added field. Quality of every hit of the campaign, checked before
     /// identification.
@@ -104,12 +122,16 @@ pub struct HitQualityRow {
 /// largest component is 1 + 0i.
 #[derive(Serialize, Deserialize, Debug, Clone)]
 pub struct ModeShape {
+    /// Identified natural frequency, Hz.
     #[serde(deserialize_with = "nullable::f64")]
     pub frequency_hz: f64,
+    /// Identified damping ratio, a fraction of critical damping.
     #[serde(deserialize_with = "nullable::f64")]
     pub damping_ratio: f64,
+    /// Identified shape, one component per floor.
     #[serde(deserialize_with = "nullable::complex_vec")]
     pub shape: Vec<[f64; 2]>,
+    /// Shape of the same mode of the true model, scaled alike, when known.
     #[serde(default, deserialize_with = "nullable::opt_complex_vec")]
     pub truth: Option<Vec<[f64; 2]>>,
 }
@@ -117,11 +139,15 @@ pub struct ModeShape {
 /// One pole of the stabilization diagram.
 #[derive(Serialize, Deserialize, Debug, Clone)]
 pub struct StabilizationPoint {
+    /// Model order (state dimension) whose model has this pole.
     pub order: usize,
+    /// Natural frequency of the pole, Hz.
     #[serde(deserialize_with = "nullable::f64")]
     pub frequency_hz: f64,
+    /// Damping ratio of the pole, a fraction of critical damping.
     #[serde(deserialize_with = "nullable::f64")]
     pub damping_ratio: f64,
+    /// How the pole compares with those of the next lower order.
     pub status: Stability,
 }
 
@@ -143,14 +169,16 @@ pub enum Stability {
 pub struct Frf {
     /// Name of the output, e.g. "floor 1".
     pub output: String,
+    /// Frequency lines, Hz; the complex vectors have one value per line.
     #[serde(deserialize_with = "nullable::vec")]
     pub frequency_hz: Vec<f64>,
     /// Estimated from the records, `[re, im]` in (m/s^2)/N.
     #[serde(deserialize_with = "nullable::complex_vec")]
     pub measured: Vec<[f64; 2]>,
-    /// Of the identified model.
+    /// Of the identified model, same units.
     #[serde(deserialize_with = "nullable::complex_vec")]
     pub identified: Vec<[f64; 2]>,
+    /// Of the true model, same units, when known.
     #[serde(default, deserialize_with = "nullable::opt_complex_vec")]
     pub truth: Option<Vec<[f64; 2]>>,
 }
@@ -159,16 +187,23 @@ pub struct Frf {
 /// errors.
 #[derive(Serialize, Deserialize, Debug, Clone)]
 pub struct ComparisonTable {
+    /// Caption, e.g. "Mass matrix M".
     pub title: String,
+    /// Unit of the values, shown in the caption as `[unit]`; may be empty.
     pub unit: String,
+    /// One row per compared value.
     pub rows: Vec<ComparisonRow>,
 }
 
+/// One identified value against its true value.
 #[derive(Serialize, Deserialize, Debug, Clone)]
 pub struct ComparisonRow {
+    /// What the value is, e.g. "M12".
     pub label: String,
+    /// The true value.
     #[serde(deserialize_with = "nullable::f64")]
     pub truth: f64,
+    /// The identified value, same unit.
     #[serde(deserialize_with = "nullable::f64")]
     pub identified: f64,
     /// Added field. Standard deviation of the identified value (e.g. across
@@ -183,32 +218,45 @@ pub struct Accuracy {
     /// Name of the optional second axis (e.g. "added mass"); one panel per
     /// value.
     pub axis_name: Option<String>,
+    /// One panel per value of the second axis; one panel without it.
     pub panels: Vec<Panel>,
+    /// Efficiency of the estimators where a Cramér–Rao bound is known; may
+    /// be empty.
     pub efficiency: Vec<EfficiencyRow>,
 }
 
 /// The sweep over noise levels at one value of the second axis (the only
 /// panel if there is none). Every per-level vector has one entry per noise
-/// level.
+/// level, or none when it was not computed.
 #[derive(Serialize, Deserialize, Debug, Clone)]
 pub struct Panel {
+    /// The value of the second axis, formatted with its unit; `None`
+    /// without a second axis.
     pub axis_value: Option<String>,
     /// Fractions of the channel RMS.
     #[serde(deserialize_with = "nullable::vec")]
     pub noise_levels: Vec<f64>,
+    /// Number of Monte Carlo trials per noise level.
     pub trials: Vec<usize>,
     /// Fraction of failed trials, 0..1.
     #[serde(deserialize_with = "nullable::vec")]
     pub failure_rate: Vec<f64>,
+    /// Failed trials by reason and noise level.
     pub failure_reasons: Vec<FailureCount>,
+    /// The accuracy measures, each charted over the noise levels.
     pub quantities: Vec<Quantity>,
 }
 
+/// How many trials at one noise level failed for one reason.
 #[derive(Serialize, Deserialize, Debug, Clone)]
 pub struct FailureCount {
+    /// The noise level, one of the panel's `noise_levels`.
     #[serde(deserialize_with = "nullable::f64")]
     pub noise_level: f64,
+    /// Why the trials failed, as text; counts with the same reason share a
+    /// table row.
     pub reason: String,
+    /// Number of trials that failed so.
     pub count: usize,
 }
 
@@ -218,16 +266,22 @@ pub struct Quantity {
     /// Stable key, e.g. `damping_mkr_err`; the same quantity has the same key
     /// in every panel.
     pub key: String,
+    /// Name shown in chart titles and on the y axis, e.g. "f₁ relative
+    /// error".
     pub label: String,
+    /// Unit of the values, shown on the y axis; empty for relative errors
+    /// and other plain numbers.
     pub unit: String,
-    /// e.g. "frequency", "damping ratio", "mode shape", "matrices",
+    /// Heading the quantity is shown under, e.g. "frequency", "damping ratio", "mode shape", "matrices",
     /// "damping matrices".
     pub group: String,
     /// Per noise level; NaN where no trial succeeded.
     #[serde(deserialize_with = "nullable::vec")]
     pub median: Vec<f64>,
+    /// 5th percentile over the successful trials, per noise level.
     #[serde(deserialize_with = "nullable::vec")]
     pub p5: Vec<f64>,
+    /// 95th percentile over the successful trials, per noise level.
     #[serde(deserialize_with = "nullable::vec")]
     pub p95: Vec<f64>,
     /// Cramér–Rao bound (standard deviation) where known.
@@ -243,7 +297,9 @@ pub struct Quantity {
 /// Axis scale.
 #[derive(Serialize, Deserialize, Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Scale {
+    /// Linear axis.
     Linear,
+    /// Logarithmic axis (base 10); values <= 0 are drawn at its bottom.
     Log,
 }
 
@@ -252,10 +308,14 @@ pub enum Scale {
 /// 1 = efficient.
 #[derive(Serialize, Deserialize, Debug, Clone)]
 pub struct EfficiencyRow {
+    /// The noise level, a fraction of the channel RMS.
     #[serde(deserialize_with = "nullable::f64")]
     pub noise_level: f64,
+    /// The estimator, e.g. "ERA/DC" or "refined (ML)".
     pub estimator: String,
+    /// What it estimates, e.g. "natural frequency 1".
     pub quantity: String,
+    /// Bound over RMS error.
     #[serde(deserialize_with = "nullable::f64")]
     pub efficiency: f64,
 }

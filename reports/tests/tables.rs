@@ -119,3 +119,134 @@ fn efficiency_table_pivots_noise_levels_into_columns() {
         }
     }
 }
+
+/// A style rule: enclosing at-rule (or ""), selector, declarations as
+/// (property, value).
+type Rule = (String, String, Vec<(String, String)>);
+
+/// The rules of the document's style sheet.
+fn style_rules(doc: &scraper::Html) -> Vec<Rule> {
+    let css: String = doc.select(&sel("head > style")).map(text).collect();
+    let mut rules = vec![];
+    let mut context = String::new();
+    let mut depth = 0;
+    let mut start = 0;
+    let mut selector = String::new();
+    for (i, c) in css.char_indices() {
+        match c {
+            '{' => {
+                let head = css[start..i].trim().to_string();
+                if head.starts_with('@') {
+                    context = head;
+                } else {
+                    selector = head;
+                }
+                depth += 1;
+                start = i + 1;
+            }
+            '}' => {
+                if !selector.is_empty() {
+                    let declarations = css[start..i]
+                        .split(';')
+                        .filter_map(|d| d.split_once(':'))
+                        .map(|(p, v)| (p.trim().to_string(), v.trim().to_string()))
+                        .collect();
+                    let at = if depth > 1 {
+                        context.clone()
+                    } else {
+                        String::new()
+                    };
+                    rules.push((at, std::mem::take(&mut selector), declarations));
+                }
+                depth -= 1;
+                if depth == 0 {
+                    context.clear();
+                }
+                start = i + 1;
+            }
+            _ => {}
+        }
+    }
+    rules
+}
+
+/// Guards the layout of the identified-against-truth tables. They used to
+/// sit in a grid whose tracks had a fixed minimum (330 px) and came out
+/// 361 px wide in a 1400-px window, narrower than a four-column table of
+/// 5-significant-digit numbers (370-380 px): the relative-error column hid
+/// behind a horizontal scrollbar. Now the tables flow in a wrapping flex
+/// row and each table's box starts from its content's width (flex basis
+/// `auto`, i.e. the table's max-content width; number cells do not wrap),
+/// so a table that does not fit beside the others moves to the next line
+/// instead of being squeezed. A column can only be cut off when one table
+/// is wider than the whole page column, and then the box shrinks to the
+/// page and scrolls (`min-width: 0`, `max-width: 100%`). This fails if the
+/// container goes back to fixed tracks, if the boxes get a width or a basis
+/// of their own, or if the tables leave the container the rules select.
+#[test]
+fn comparison_tables_take_the_width_their_columns_need() {
+    let doc = parse(&reports::render(&common::report()).unwrap());
+    // Structure: every comparison table is alone in a .table-wrap that is a
+    // direct child of the .tables container.
+    let mut tables = 0;
+    for table in doc.select(&sel("table.comparison")) {
+        let wrap = scraper::ElementRef::wrap(table.parent().unwrap()).unwrap();
+        assert!(wrap.value().classes().any(|c| c == "table-wrap"));
+        assert_eq!(common::child_elements(wrap).len(), 1);
+        let container = scraper::ElementRef::wrap(wrap.parent().unwrap()).unwrap();
+        assert!(container.value().classes().any(|c| c == "tables"));
+        tables += 1;
+    }
+    assert!(tables >= 7, "{tables} comparison tables");
+
+    let rules = style_rules(&doc);
+    let declared = |selector: &str, property: &str| -> Vec<(String, String)> {
+        rules
+            .iter()
+            .filter(|(_, s, _)| s.split(',').any(|s| s.trim() == selector))
+            .flat_map(|(at, _, d)| {
+                d.iter()
+                    .filter(|(p, _)| p == property)
+                    .map(move |(_, v)| (at.clone(), v.clone()))
+            })
+            .collect()
+    };
+    let top = |selector: &str, property: &str| -> Option<String> {
+        declared(selector, property)
+            .into_iter()
+            .filter(|(at, _)| at.is_empty())
+            .map(|(_, v)| v)
+            .next_back()
+    };
+    assert_eq!(top(".tables", "display").as_deref(), Some("flex"));
+    assert_eq!(top(".tables", "flex-wrap").as_deref(), Some("wrap"));
+    assert_eq!(declared(".tables", "grid-template-columns"), vec![]);
+    for property in ["display", "flex-wrap"] {
+        for (at, v) in declared(".tables", property) {
+            assert!(at.is_empty(), "{at} overrides .tables {property}: {v}");
+        }
+    }
+    let item = ".tables > .table-wrap";
+    let flex = top(item, "flex").expect("the boxes' flex");
+    let parts: Vec<&str> = flex.split_whitespace().collect();
+    assert_eq!(parts.get(2), Some(&"auto"), "flex basis of {flex:?}");
+    assert_eq!(parts.first(), Some(&"0"), "no growing: {flex:?}");
+    assert_eq!(top(item, "min-width").as_deref(), Some("0"));
+    assert_eq!(top(item, "max-width").as_deref(), Some("100%"));
+    for property in ["width", "flex-basis", "min-width", "max-width", "flex"] {
+        for (at, v) in declared(item, property) {
+            assert!(at.is_empty(), "{at} sets {item} {property}: {v}");
+        }
+        for selector in [".table-wrap", "table.comparison", "table"] {
+            for (at, v) in declared(selector, property) {
+                assert!(
+                    property == "max-width" && v == "none",
+                    "{at} {selector} {property}: {v} would bound the tables' width"
+                );
+            }
+        }
+    }
+    // Numbers stay on one line, so the content width is that of the
+    // widest number of each column.
+    assert_eq!(top("td.num", "white-space").as_deref(), Some("nowrap"));
+}

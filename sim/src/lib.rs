@@ -25,6 +25,7 @@
 
 pub mod analyzer;
 pub mod campaign;
+mod convert;
 pub mod damping;
 pub mod error;
 pub mod hammer;

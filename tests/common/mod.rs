@@ -78,28 +78,3 @@ pub fn rel_fro(a: &[Vec<f64>], b: &[Vec<f64>]) -> f64 {
     }
     (num / den).sqrt()
 }
-
-/// A channel selector from its command-line text.
-pub fn spec(s: &str) -> frameid::records::ChannelSpec {
-    s.parse().unwrap()
-}
-
-/// The problem of a parse error and its message, which must name `file`.
-pub fn parse_problem(
-    file: &str,
-    r: Result<frameid::records::RecordFile, frameid::records::RecordError>,
-) -> (frameid::records::Problem, String) {
-    use frameid::records::RecordError;
-    match r {
-        Err(e @ RecordError::Parse { .. }) => {
-            let msg = e.to_string();
-            assert!(msg.starts_with(&format!("{file}: ")), "{msg}");
-            let RecordError::Parse { problem, .. } = e else {
-                unreachable!()
-            };
-            (problem, msg)
-        }
-        Err(e) => panic!("not a parse error: {e}"),
-        Ok(r) => panic!("accepted: {r:?}"),
-    }
-}

@@ -13,6 +13,11 @@
 //!   uniformly spaced.
 //! * `coherence[k]` (if known) is the ordinary coherence of every
 //!   response/reference pair at line `k`, in `[0, 1]`.
+//!
+//! [`estimate`] computes FRFs and coherence from time records (H1, H2, Hv;
+//! averaged across hammer hits or over Welch segments).
+
+pub mod estimate;
 
 pub mod identify;
 pub mod lscf;

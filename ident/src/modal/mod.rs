@@ -52,13 +52,47 @@ use std::f64::consts::PI;
 #[cfg(test)]
 mod tests;
 
-/// What the input did between samples.
+/// What the input did between samples. Written `zoh` or `bandlimited` in
+/// files, on the command line and in JSON ([`std::str::FromStr`] and
+/// [`std::fmt::Display`] use the same words as serde).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Intersample {
     /// Held over each sample (zero-order hold).
     Zoh,
     /// Band-limited (analyzer anti-alias filter, then sampling).
     Bandlimited,
+}
+
+impl Intersample {
+    /// Every assumption, as written in files.
+    pub const ALL: [Intersample; 2] = [Intersample::Bandlimited, Intersample::Zoh];
+
+    /// The word used in files, on the command line and in JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Intersample::Zoh => "zoh",
+            Intersample::Bandlimited => "bandlimited",
+        }
+    }
+}
+
+impl std::fmt::Display for Intersample {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Intersample {
+    type Err = String;
+
+    /// Parses `zoh` or `bandlimited` (case-insensitive).
+    fn from_str(s: &str) -> Result<Self, String> {
+        Intersample::ALL
+            .into_iter()
+            .find(|i| i.name().eq_ignore_ascii_case(s.trim()))
+            .ok_or_else(|| format!("expected `zoh` or `bandlimited`, got `{s}`"))
+    }
 }
 
 /// Thresholds that tell structural modes from noise modes.

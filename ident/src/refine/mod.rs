@@ -133,6 +133,20 @@ pub struct SecondOrder {
 }
 
 impl SecondOrder {
+    /// The refinement's usual starting point: the M and K identified by MKR
+    /// with the Rayleigh damping `alpha M + beta K`. MKR's own damping matrix
+    /// is far off at any noise level (it is hypersensitive to the complex
+    /// mode shapes when damping is light, see the paper's eq. 46 against
+    /// eq. 47), the Rayleigh one is a smooth function of the identified
+    /// frequencies and damping ratios.
+    pub fn from_identification(id: &crate::pipeline::Identification) -> Self {
+        Self::new(
+            id.mass.clone(),
+            id.stiffness.clone(),
+            id.damping_rayleigh.clone(),
+        )
+    }
+
     /// Bundles the three matrices. Panics if they are not square of one size.
     pub fn new(mass: DMatrix<f64>, stiffness: DMatrix<f64>, damping: DMatrix<f64>) -> Self {
         let out = Self {

@@ -1,0 +1,278 @@
+//! Record file formats behind one trait.
+//!
+//! A format recognizes its files from their content ([`FileFormat::detect`]),
+//! reads them into a [`RecordFile`] and encodes a [`RecordFile`] so that it
+//! reads back unchanged. [`FORMATS`] lists the formats in the order they are
+//! tried; [`parse_record`] picks the first whose `detect` accepts the bytes.
+//! To add a format: implement [`FileFormat`] in a module of its own, add it
+//! to [`FORMATS`] before the CSV fallback, and give it a [`Format`] variant
+//! (see CONTRIBUTING.md).
+
+use std::path::Path;
+
+use crate::csv;
+use crate::error::{CampaignMismatch, IoOp, RecordError};
+use crate::record::{Format, ReadOptions, RecordFile};
+use crate::timeaxis;
+use crate::uff::{self, Uff58Encoding};
+use crate::write::write_atomically;
+
+/// A record file format: detect, read, write.
+pub trait FileFormat: Sync {
+    /// Short name, as in messages (`csv`, `uff58`).
+    fn name(&self) -> &'static str;
+
+    /// Whether `bytes` are in this format, judged from the content only
+    /// (never from the file name). Cheap: it looks at the first lines.
+    fn detect(&self, bytes: &[u8]) -> bool;
+
+    /// Parses a whole file; `path` is used in messages and stored.
+    fn read(
+        &self,
+        bytes: &[u8],
+        path: &Path,
+        opts: &ReadOptions,
+    ) -> Result<RecordFile, RecordError>;
+
+    /// The bytes of `rec` in this format; refuses a record that would not
+    /// read back unchanged (the error names `rec.path`).
+    fn encode(&self, rec: &RecordFile) -> Result<Vec<u8>, RecordError>;
+}
+
+/// Delimited text (CSV): a header of channel names, optionally a time column.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Csv;
+
+/// Universal File Format dataset 58, written in the given encoding (both
+/// encodings, and files mixing them, are read).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Uff58(pub Uff58Encoding);
+
+/// The formats in detection order: UFF first (its files start with the
+/// dataset delimiter `-1`), CSV last as the fallback for any text.
+pub const FORMATS: [&dyn FileFormat; 2] = [&Uff58(Uff58Encoding::Ascii), &Csv];
+
+impl FileFormat for Csv {
+    fn name(&self) -> &'static str {
+        "csv"
+    }
+
+    fn detect(&self, _bytes: &[u8]) -> bool {
+        true
+    }
+
+    fn read(
+        &self,
+        bytes: &[u8],
+        path: &Path,
+        opts: &ReadOptions,
+    ) -> Result<RecordFile, RecordError> {
+        csv::parse_csv(bytes, path, opts)
+    }
+
+    fn encode(&self, rec: &RecordFile) -> Result<Vec<u8>, RecordError> {
+        csv_text(rec)
+            .map(String::into_bytes)
+            .map_err(|reason| refuse(&rec.path, reason))
+    }
+}
+
+impl FileFormat for Uff58 {
+    fn name(&self) -> &'static str {
+        "uff58"
+    }
+
+    fn detect(&self, bytes: &[u8]) -> bool {
+        let body = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+        body.split(|&b| b == b'\n')
+            .map(|l| l.trim_ascii())
+            .find(|l| !l.is_empty())
+            .is_some_and(|l| l == b"-1")
+    }
+
+    fn read(
+        &self,
+        bytes: &[u8],
+        path: &Path,
+        opts: &ReadOptions,
+    ) -> Result<RecordFile, RecordError> {
+        uff::parse_uff58(bytes, path, opts)
+    }
+
+    fn encode(&self, rec: &RecordFile) -> Result<Vec<u8>, RecordError> {
+        if let Some(reason) = rec.consistency_problem() {
+            return Err(refuse(&rec.path, reason));
+        }
+        uff::check_writable(rec).map_err(|reason| refuse(&rec.path, reason))?;
+        Ok(uff::render_uff58(rec, self.0))
+    }
+}
+
+impl Format {
+    /// The format that writes records of this layout.
+    pub fn file_format(self) -> &'static dyn FileFormat {
+        match self {
+            Format::Csv { .. } => &Csv,
+            Format::Uff58Ascii => &Uff58(Uff58Encoding::Ascii),
+            Format::Uff58Binary => &Uff58(Uff58Encoding::Binary),
+        }
+    }
+}
+
+/// The format of `bytes`: the first of [`FORMATS`] that detects them.
+pub fn detect(bytes: &[u8]) -> &'static dyn FileFormat {
+    FORMATS
+        .into_iter()
+        .find(|f| f.detect(bytes))
+        .unwrap_or(&Csv)
+}
+
+/// Parses record content held in memory, recognising the format from the
+/// content (see [`FORMATS`]). `path` is used in messages (and stored).
+pub fn parse_record(
+    bytes: &[u8],
+    path: &Path,
+    opts: &ReadOptions,
+) -> Result<RecordFile, RecordError> {
+    opts.validate()?;
+    detect(bytes).read(bytes, path, opts)
+}
+
+/// Reads a record file of any known format.
+pub fn read_record(path: &Path, opts: &ReadOptions) -> Result<RecordFile, RecordError> {
+    opts.validate()?;
+    let bytes = std::fs::read(path).map_err(|error| RecordError::Io {
+        path: path.to_path_buf(),
+        op: IoOp::Read,
+        error,
+    })?;
+    parse_record(&bytes, path, opts)
+}
+
+/// Relative tolerance on the sampling interval of records of one campaign:
+/// UFF stores the interval with 6 significant digits (E13.5), so the same
+/// rate read from UFF and from a CSV time column can differ by 5e-6.
+pub const CAMPAIGN_DT_REL_TOL: f64 = 1e-5;
+
+/// Reads the records of one test campaign (several hits) and checks that
+/// they have the same length and sampling interval; the error names the
+/// first file and the one that differs.
+pub fn read_campaign<P: AsRef<Path>>(
+    paths: &[P],
+    opts: &ReadOptions,
+) -> Result<Vec<RecordFile>, RecordError> {
+    let records = paths
+        .iter()
+        .map(|p| read_record(p.as_ref(), opts))
+        .collect::<Result<Vec<_>, _>>()?;
+    check_campaign(&records)?;
+    Ok(records)
+}
+
+/// Checks that records have the same length and sampling interval (within
+/// [`CAMPAIGN_DT_REL_TOL`]), the first one being the reference.
+pub fn check_campaign(records: &[RecordFile]) -> Result<(), RecordError> {
+    let Some((first, rest)) = records.split_first() else {
+        return Err(RecordError::EmptyCampaign);
+    };
+    for r in rest {
+        let mismatch = if r.len() != first.len() {
+            Some(CampaignMismatch::Length {
+                reference: first.len(),
+                other: r.len(),
+            })
+        } else if (r.dt_s - first.dt_s).abs() > CAMPAIGN_DT_REL_TOL * first.dt_s {
+            Some(CampaignMismatch::SamplingInterval {
+                reference_s: first.dt_s,
+                other_s: r.dt_s,
+            })
+        } else {
+            None
+        };
+        if let Some(mismatch) = mismatch {
+            return Err(RecordError::Campaign {
+                reference: first.path.clone(),
+                other: r.path.clone(),
+                mismatch,
+            });
+        }
+    }
+    Ok(())
+}
+
+fn refuse(path: &Path, reason: String) -> RecordError {
+    RecordError::InvalidRecord {
+        path: path.to_path_buf(),
+        reason,
+    }
+}
+
+/// Writes `rec` to `path` in `format`, atomically (see [`write_atomically`]).
+pub fn write_record(
+    path: &Path,
+    rec: &RecordFile,
+    format: &dyn FileFormat,
+) -> Result<(), RecordError> {
+    let bytes = format.encode(rec).map_err(|e| rename_refusal(e, path))?;
+    write_atomically(path, &bytes)
+}
+
+/// A refusal to encode names the record's own path; when writing, name the
+/// target instead.
+fn rename_refusal(e: RecordError, path: &Path) -> RecordError {
+    match e {
+        RecordError::InvalidRecord { reason, .. } => refuse(path, reason),
+        other => other,
+    }
+}
+
+/// Writes `rec` as CSV: header `time,<name [unit]>...`, one row per sample,
+/// time in seconds computed as `start_s + i * dt_s`, every number in the
+/// shortest form that reads back bit for bit. Node, direction and ID line
+/// are not stored. Refuses records that would not read back unchanged.
+pub fn write_csv(path: &Path, rec: &RecordFile) -> Result<(), RecordError> {
+    write_record(path, rec, &Csv)
+}
+
+/// Writes `rec` as UFF dataset 58 in the given encoding: binary (58b,
+/// little-endian doubles, bit-exact) or ASCII as the format prescribes
+/// (4E20.12, 13 significant digits). Each channel is a time response
+/// (function type 1) at its node and direction (0 if unknown), ID line 1 is
+/// the channel name, record 9 carries the unit. Record 7 holds start and
+/// interval with 6 digits (E13.5) as prescribed; the exact values are added
+/// to ID line 5 (`frameid dt_s=… start_s=…`) and used by [`read_record`]
+/// when they agree with record 7.
+pub fn write_uff58(path: &Path, rec: &RecordFile, enc: Uff58Encoding) -> Result<(), RecordError> {
+    write_record(path, rec, &Uff58(enc))
+}
+
+fn csv_text(rec: &RecordFile) -> Result<String, String> {
+    if let Some(reason) = rec.consistency_problem() {
+        return Err(reason);
+    }
+    for (i, ch) in rec.channels.iter().enumerate() {
+        if let Some(reason) = csv::header_round_trip_problem(ch, i) {
+            return Err(reason);
+        }
+    }
+    let n = rec.len();
+    if n < 2 {
+        return Err(
+            "a single sample cannot carry its sampling interval in a CSV time column".into(),
+        );
+    }
+    // The reader recovers dt from the time column; make sure it will get
+    // it back (bit for bit in the usual cases, to 1e-9 always).
+    let t: Vec<f64> = (0..n).map(|i| rec.time_s(i)).collect();
+    match timeaxis::check_uniform(&t, &timeaxis::PrintModel::exact(), 1.0) {
+        Ok(dt) if (dt - rec.dt_s).abs() <= 1e-9 * rec.dt_s => Ok(csv::render_csv(rec)),
+        Ok(dt) => Err(format!(
+            "with start_s = {} s the time column cannot carry dt_s = {} s (it would read back as {dt} s); use UFF",
+            rec.start_s, rec.dt_s
+        )),
+        Err(_) => Err(format!(
+            "the time stamps start_s + i*dt_s (start {} s, dt {} s) are not uniform at double precision",
+            rec.start_s, rec.dt_s
+        )),
+    }
+}

@@ -1,0 +1,998 @@
+//! Hit quality checks, run on the loaded records before identification.
+//!
+//! A hammer campaign is only as good as its worst hits. Every hit (record)
+//! is checked on its own, with thresholds that follow from what a hammer
+//! force and a free-decay response look like after a spectrum analyzer:
+//!
+//! | check | metric | flagged when (default) |
+//! |---|---|---|
+//! | no hit | force peak over its robust noise level | below 20 dB (fatal: the record cannot be used) |
+//! | double hit | second force pulse over the main one, smoothed | ratio >= 0.1 |
+//! | clipping | samples equal to a channel's extreme, or at a declared ADC range | 2 samples (in a row or not) |
+//! | pulse too long | fall of the force spectrum over the analysis band | more than 12 dB |
+//! | response not decayed | RMS of the last 10 % of an output over its peak | above 0.05 (and above the noise) |
+//! | pre-trigger too short | noise samples before the hit (after a guard) | fewer than 8 (a note: the hit is not failed) |
+//! | low SNR | signal RMS over pre-trigger noise RMS, per channel | below 20 dB |
+//!
+//! The reasoning behind each threshold is next to its default in
+//! [`QualitySettings`]. Everything here is a pure function of the samples:
+//! [`assess_hit`] for one record, [`assess_campaign`] for a loaded campaign.
+//! The results serialize to JSON (`hit_quality` in `frameid identify --json`)
+//! and carry the numbers an HTML report needs.
+
+use std::fmt;
+
+use ident::{Campaign, Record};
+use serde::{Deserialize, Serialize};
+
+/// Thresholds of the checks. `QualitySettings::default()` is what
+/// `frameid identify` uses.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct QualitySettings {
+    /// A hit whose force peak is less than this many robust noise standard
+    /// deviations above the record's median is not a hit. Gaussian noise
+    /// alone peaks at about 4 sigma in a few thousand samples, so 10 (20 dB)
+    /// never mistakes noise for a hit, and a real pulse that weak would
+    /// carry less energy than the noise over a few tens of samples.
+    pub min_hit_peak_to_noise: f64,
+    /// Double hit: a second force pulse whose (smoothed) height is at least
+    /// this fraction of the main pulse. The force is smoothed with the
+    /// three-tap filter `[1, 2, 1] / 4` first: it keeps the area of a pulse
+    /// but has a zero at the Nyquist frequency, and the ringing of an
+    /// analyzer's decimation filter (up to 5 % of the peak for several
+    /// samples, measured on the simulator's 100 dB Kaiser FIR) sits in the
+    /// transition band between fs/2.56 and fs/2, where the smoother's gain
+    /// is 0.1 down to 0: after smoothing the ringing stays at about 1 % of
+    /// the pulse (1.3 % at most on the bundled scenarios). A second pulse
+    /// of 0.1 makes the force spectrum ripple by +-0.8 dB
+    /// (20 log10 (1 + r)), where the spectrum visibly departs from a single
+    /// pulse's, and is about ten times the residual ringing, so clean
+    /// pulses raise no false alarms.
+    pub double_hit_ratio: f64,
+    /// A second pulse counts only if the smoothed force dips, between it
+    /// and the main pulse, to this fraction of the second pulse's height or
+    /// lower: two pulses rather than a shoulder on one long pulse (whose
+    /// spectrum `max_force_drop_db` checks). At 0.8, two pulses 3.5 samples
+    /// apart or more are resolved at the analysis rate.
+    pub double_hit_valley: f64,
+    /// Clipping: this many samples equal to a channel's extreme value,
+    /// in a row (a flat top) or not (several flat-topped peaks). A
+    /// band-limited or noisy signal never repeats its extreme exactly: the
+    /// top of a 25 Hz sine sampled at 64 Hz changes by tens of percent
+    /// between samples, a 2.7 Hz one by 3.5 %, and a decaying response's
+    /// next peak is lower by far more than an ADC step. An overloaded ADC
+    /// returns its full-scale code for as long as the overload lasts. A
+    /// single clipped sample (a one-sample force peak cut short) cannot be
+    /// told from a clean one: declare the ranges to catch it. Records
+    /// sampled a thousand times faster than their modes and coarsely
+    /// quantized may repeat their extreme legitimately: raise this for them.
+    pub clip_samples: usize,
+    /// Declared input range of the force channel(s), N, if known: a sample
+    /// at or beyond it is clipped.
+    pub force_range: Option<f64>,
+    /// Declared input range of the acceleration channels, m/s^2, if known.
+    pub acceleration_range: Option<f64>,
+    /// Upper edge of the analysis band, Hz. Default: fs / 2.56, the span of
+    /// a spectrum analyzer (the band its anti-alias filter leaves flat).
+    pub band_hz: Option<f64>,
+    /// Largest allowed fall of the force spectrum over the analysis band,
+    /// dB. The rule of thumb in impact testing is that the force spectrum
+    /// should not fall by more than 10 to 20 dB over the frequency range of
+    /// interest, or the upper modes are barely excited and drown in noise.
+    /// 12 dB (a quarter of the low-frequency amplitude) is at the strict end
+    /// of that range but clears what a short hit can look like at the
+    /// analysis rate: an impulse held over two samples in equal parts
+    /// (a contact straddling a sample boundary) falls 9.4 dB at fs/2.56.
+    /// A half-sine pulse of duration T falls 12 dB at f T = 1.1.
+    pub max_force_drop_db: f64,
+    /// Part of each output at the end of the record used for the decay
+    /// check (the last 10 %).
+    pub tail_fraction: f64,
+    /// Largest allowed RMS of an output's tail over its peak. At 0.05
+    /// (-26 dB) the response still oscillates with about 7 % of its peak
+    /// amplitude when the record ends: an FFT of the record leaks, and the
+    /// record holds less of the decay than its length suggests. OKID itself
+    /// works in the time domain and tolerates truncation, so this is a
+    /// warning about the set-up (record length, exponential window). The
+    /// paper's frame (damping 0.25-0.54 %) decays to 0.01 in 32 s.
+    pub max_tail_ratio: f64,
+    /// The tail counts as undecayed only if its RMS is also this many times
+    /// the pre-trigger noise RMS: a tail in the noise has decayed.
+    pub tail_noise_factor: f64,
+    /// Samples just before the hit (the force peak) left out of the noise
+    /// estimate. An analyzer's linear-phase decimation filter starts the
+    /// band-limited pulse before the hit: the simulator's 100 dB FIR puts
+    /// 1-4 % of the peak into the 12 samples before it and about 0.1 % or
+    /// less more than 20 samples before it. A guard of 20 keeps that precursor out of
+    /// the noise estimate.
+    pub noise_guard_samples: usize,
+    /// Fewest noise samples for an estimate: the RMS of n Gaussian samples
+    /// has a relative standard deviation of about 1 / sqrt(2 n), 25 %
+    /// (2 dB) at 8 samples.
+    pub min_noise_samples: usize,
+    /// Smallest acceptable SNR, dB: signal RMS (from the end of the noise
+    /// window to the end of the record) over pre-trigger noise RMS, per
+    /// channel. Below 20 dB the noise RMS exceeds a tenth of the signal's;
+    /// in the simulator's paper case 1, 10 % noise (20 dB) already biases
+    /// the identified stiffness by about 1 % over 10 hits.
+    pub min_snr_db: f64,
+}
+
+impl Default for QualitySettings {
+    fn default() -> Self {
+        QualitySettings {
+            min_hit_peak_to_noise: 10.0,
+            double_hit_ratio: 0.1,
+            double_hit_valley: 0.8,
+            clip_samples: 2,
+            force_range: None,
+            acceleration_range: None,
+            band_hz: None,
+            max_force_drop_db: 12.0,
+            tail_fraction: 0.1,
+            max_tail_ratio: 0.05,
+            tail_noise_factor: 2.0,
+            noise_guard_samples: 20,
+            min_noise_samples: 8,
+            min_snr_db: 20.0,
+        }
+    }
+}
+
+impl QualitySettings {
+    /// Checks the settings; the error names the field.
+    pub fn check(&self) -> Result<(), String> {
+        let positive = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} must be a positive number, got {v}"))
+            }
+        };
+        positive("min_hit_peak_to_noise", self.min_hit_peak_to_noise)?;
+        positive("double_hit_ratio", self.double_hit_ratio)?;
+        positive("double_hit_valley", self.double_hit_valley)?;
+        positive("max_force_drop_db", self.max_force_drop_db)?;
+        positive("max_tail_ratio", self.max_tail_ratio)?;
+        positive("tail_noise_factor", self.tail_noise_factor)?;
+        if !self.min_snr_db.is_finite() {
+            return Err(format!(
+                "min_snr_db must be a finite number, got {}",
+                self.min_snr_db
+            ));
+        }
+        if !(self.tail_fraction > 0.0 && self.tail_fraction <= 0.5) {
+            return Err(format!(
+                "tail_fraction must be in (0, 0.5], got {}",
+                self.tail_fraction
+            ));
+        }
+        for (name, v) in [
+            ("force_range", self.force_range),
+            ("acceleration_range", self.acceleration_range),
+            ("band_hz", self.band_hz),
+        ] {
+            if let Some(v) = v {
+                positive(name, v)?;
+            }
+        }
+        if self.clip_samples < 2 {
+            return Err(format!(
+                "clip_samples must be at least 2, got {}",
+                self.clip_samples
+            ));
+        }
+        if self.min_noise_samples < 2 {
+            return Err(format!(
+                "min_noise_samples must be at least 2, got {}",
+                self.min_noise_samples
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The checks, in the order they are reported.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Check {
+    /// The force holds no hit: zero, or nothing above its noise.
+    NoHit,
+    /// A second force pulse after (or before) the main one.
+    DoubleHit,
+    /// A channel is clipped (ADC overload).
+    Clipping,
+    /// The force pulse is too long for the analysis band.
+    LongPulse,
+    /// An output has not decayed by the end of the record.
+    NotDecayed,
+    /// Too few samples before the hit to estimate the noise.
+    ShortPretrigger,
+    /// A channel's signal-to-noise ratio is low.
+    LowSnr,
+}
+
+impl Check {
+    /// A fatal check makes the record unusable: the campaign is refused
+    /// unless the hit is dropped.
+    pub fn is_fatal(self) -> bool {
+        matches!(self, Check::NoHit)
+    }
+
+    /// Whether the check fails the hit (`--strict` refuses it,
+    /// `--drop-bad-hits` drops it). A short pre-trigger only means the
+    /// noise could not be measured; it is reported but fails nothing.
+    pub fn fails_hit(self) -> bool {
+        !matches!(self, Check::ShortPretrigger)
+    }
+
+    /// Short name, as in messages.
+    pub fn label(self) -> &'static str {
+        match self {
+            Check::NoHit => "no hit",
+            Check::DoubleHit => "double hit",
+            Check::Clipping => "clipping",
+            Check::LongPulse => "force pulse too long",
+            Check::NotDecayed => "response not decayed",
+            Check::ShortPretrigger => "pre-trigger too short",
+            Check::LowSnr => "low SNR",
+        }
+    }
+}
+
+impl fmt::Display for Check {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.label())
+    }
+}
+
+/// One failed check of a hit.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Flag {
+    pub check: Check,
+    /// The channel concerned, if the check is per channel.
+    pub channel: Option<String>,
+    /// What was found, with the numbers and the threshold (without the
+    /// file name).
+    pub message: String,
+}
+
+impl fmt::Display for Flag {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.check, self.message)
+    }
+}
+
+/// Whether a channel is an input (force) or an output (acceleration).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    Input,
+    Output,
+}
+
+/// Metrics of one channel of a hit.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ChannelQuality {
+    pub name: String,
+    pub role: Role,
+    /// Largest deviation from the baseline (the pre-trigger mean).
+    pub peak: f64,
+    /// RMS about the baseline from the end of the noise window to the end
+    /// of the record.
+    pub rms: f64,
+    /// Pre-trigger noise RMS (null if the pre-trigger is too short).
+    pub noise_rms: Option<f64>,
+    /// `20 log10(rms / noise_rms)` (null without a noise estimate or for
+    /// noise-free records).
+    pub snr_db: Option<f64>,
+    /// Longest run of consecutive samples at the channel's extreme value.
+    pub clip_run: usize,
+    /// Samples at the channel's extreme value.
+    pub clip_samples: usize,
+    /// Samples at or beyond the declared ADC range (0 if none declared).
+    pub range_samples: usize,
+    /// Outputs: RMS of the record's tail over the peak.
+    pub tail_ratio: Option<f64>,
+}
+
+/// Metrics of the force pulse (the main input of the hit).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PulseQuality {
+    /// Input channel the hit was found on.
+    pub channel: String,
+    /// Force peak over its robust noise level, dB (null if noise-free).
+    pub peak_to_noise_db: Option<f64>,
+    /// Height of the largest second pulse over the main one (smoothed
+    /// force; 0 if there is none).
+    pub double_hit_ratio: f64,
+    /// Time from the main pulse to that second pulse, s (negative if it
+    /// comes first).
+    pub double_hit_delay_s: Option<f64>,
+    /// Upper edge of the analysis band, Hz.
+    pub band_hz: f64,
+    /// Fall of the force amplitude spectrum over [0, band_hz], dB.
+    pub spectrum_drop_db: f64,
+    /// Duration of the half-sine pulse whose spectrum falls as much at the
+    /// same frequency, s (an equivalent contact time).
+    pub equivalent_duration_s: f64,
+}
+
+/// Quality of one hit.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HitQuality {
+    /// 1-based position in the campaign.
+    pub hit: usize,
+    pub file: String,
+    /// Sample of the force peak (0-based) and its time from the record
+    /// start (null when there is no hit).
+    pub hit_sample: Option<usize>,
+    pub hit_time_s: Option<f64>,
+    /// Samples used for the noise estimate (before the hit, minus the guard).
+    pub noise_samples: usize,
+    /// The force pulse (null when there is no hit).
+    pub pulse: Option<PulseQuality>,
+    /// Inputs, then outputs.
+    pub channels: Vec<ChannelQuality>,
+    /// Failed checks; empty for a good hit.
+    pub flags: Vec<Flag>,
+}
+
+impl HitQuality {
+    /// No check failed (notes such as a short pre-trigger do not count).
+    pub fn passed(&self) -> bool {
+        !self.flags.iter().any(|f| f.check.fails_hit())
+    }
+
+    /// A fatal check failed (the record cannot be identified).
+    pub fn fatal(&self) -> bool {
+        self.flags.iter().any(|f| f.check.is_fatal())
+    }
+
+    /// The distinct checks that failed the hit, in order.
+    pub fn failed_checks(&self) -> Vec<Check> {
+        let mut v: Vec<Check> = Vec::new();
+        for f in &self.flags {
+            if f.check.fails_hit() && !v.contains(&f.check) {
+                v.push(f.check);
+            }
+        }
+        v
+    }
+
+    /// Lowest SNR over the channels, dB.
+    pub fn min_snr_db(&self) -> Option<f64> {
+        self.channels
+            .iter()
+            .filter_map(|c| c.snr_db)
+            .min_by(f64::total_cmp)
+    }
+
+    /// Largest tail ratio over the outputs.
+    pub fn max_tail_ratio(&self) -> Option<f64> {
+        self.channels
+            .iter()
+            .filter_map(|c| c.tail_ratio)
+            .max_by(f64::total_cmp)
+    }
+}
+
+/// Checks every hit of a campaign; `file` of each result is the record's
+/// label.
+pub fn assess_campaign(c: &Campaign, settings: &QualitySettings) -> Vec<HitQuality> {
+    c.records
+        .iter()
+        .zip(&c.labels)
+        .enumerate()
+        .map(|(i, (rec, label))| {
+            let mut q = assess_hit(rec, c.dt_s, &c.inputs, &c.outputs, settings);
+            q.hit = i + 1;
+            q.file = label.clone();
+            q
+        })
+        .collect()
+}
+
+/// Checks one record sampled every `dt_s` seconds; `inputs` and `outputs`
+/// name its channels (rows of `record.inputs` and `record.outputs`). The
+/// result has `hit` 1 and an empty `file`; [`assess_campaign`] fills them.
+///
+/// Panics if the name lists do not match the record's channel counts.
+pub fn assess_hit(
+    record: &Record,
+    dt_s: f64,
+    inputs: &[String],
+    outputs: &[String],
+    settings: &QualitySettings,
+) -> HitQuality {
+    assert_eq!(inputs.len(), record.inputs.nrows(), "one name per input");
+    assert_eq!(outputs.len(), record.outputs.nrows(), "one name per output");
+    let n = record.len();
+    let input_rows: Vec<Vec<f64>> = (0..inputs.len())
+        .map(|i| record.inputs.row(i).iter().copied().collect())
+        .collect();
+    let output_rows: Vec<Vec<f64>> = (0..outputs.len())
+        .map(|i| record.outputs.row(i).iter().copied().collect())
+        .collect();
+
+    // The hit: the input with the largest peak over its robust noise level.
+    let found: Vec<HitPeak> = input_rows.iter().map(|x| find_hit(x)).collect();
+    let main = (0..found.len())
+        .max_by(|&a, &b| {
+            found[a]
+                .peak_to_noise()
+                .total_cmp(&found[b].peak_to_noise())
+        })
+        .unwrap_or(0);
+    let mut flags = Vec::new();
+    let hit = found.get(main).copied().unwrap_or(HitPeak {
+        index: 0,
+        peak: 0.0,
+        sigma: 0.0,
+        median: 0.0,
+    });
+    let is_hit = hit.peak > 0.0 && hit.peak_to_noise() >= settings.min_hit_peak_to_noise;
+    if !is_hit {
+        let name = inputs.get(main).cloned().unwrap_or_default();
+        let message = if hit.peak == 0.0 {
+            format!("the force channel '{name}' is constant (no pulse at all)")
+        } else {
+            format!(
+                "the force channel '{name}' peaks at {:.1} times its noise level (robust RMS {}), at least {} is needed for a hammer pulse: only noise",
+                hit.peak_to_noise(),
+                short(hit.sigma),
+                settings.min_hit_peak_to_noise
+            )
+        };
+        flags.push(Flag {
+            check: Check::NoHit,
+            channel: Some(name),
+            message,
+        });
+    }
+    let p = hit.index;
+    let noise_end = if is_hit {
+        p.saturating_sub(settings.noise_guard_samples)
+    } else {
+        n
+    };
+    let noise_ok = noise_end >= settings.min_noise_samples;
+    if is_hit && !noise_ok {
+        flags.push(Flag {
+            check: Check::ShortPretrigger,
+            channel: None,
+            message: format!(
+                "the hit is at sample {p}: {noise_end} samples before it after a guard of {} (the filter precursor), at least {} are needed to estimate the noise; record a longer pre-trigger",
+                settings.noise_guard_samples, settings.min_noise_samples
+            ),
+        });
+    }
+
+    let mut channels = Vec::with_capacity(inputs.len() + outputs.len());
+    let all = input_rows
+        .iter()
+        .zip(inputs)
+        .map(|(x, name)| (x, name, Role::Input))
+        .chain(
+            output_rows
+                .iter()
+                .zip(outputs)
+                .map(|(x, name)| (x, name, Role::Output)),
+        );
+    let mut low_snr = Vec::new();
+    for (x, name, role) in all {
+        let cq = channel_quality(x, name, role, noise_end, noise_ok && is_hit, settings);
+        if let Some(f) = clipping_flag(&cq, x, settings) {
+            flags.push(f);
+        }
+        if is_hit
+            && let Some(snr) = cq.snr_db
+            && snr < settings.min_snr_db
+        {
+            low_snr.push(format!("{} {:.1} dB", cq.name, snr));
+        }
+        if let Some(r) = cq.tail_ratio
+            && r > settings.max_tail_ratio
+            && is_hit
+        {
+            let tail_rms = r * cq.peak;
+            let above_noise = cq
+                .noise_rms
+                .is_none_or(|nr| tail_rms > settings.tail_noise_factor * nr);
+            if above_noise {
+                flags.push(Flag {
+                    check: Check::NotDecayed,
+                    channel: Some(cq.name.clone()),
+                    message: format!(
+                        "the last {:.0} % of '{}' has an RMS of {:.1} % of its peak (at most {:.1} % allowed): the record ends before the response has died away (leakage); record longer",
+                        100.0 * settings.tail_fraction,
+                        cq.name,
+                        100.0 * r,
+                        100.0 * settings.max_tail_ratio
+                    ),
+                });
+            }
+        }
+        channels.push(cq);
+    }
+    if !low_snr.is_empty() {
+        flags.push(Flag {
+            check: Check::LowSnr,
+            channel: None,
+            message: format!(
+                "{} (at least {} dB wanted: signal RMS over pre-trigger noise RMS)",
+                low_snr.join(", "),
+                settings.min_snr_db
+            ),
+        });
+    }
+
+    let pulse = is_hit.then(|| {
+        let x = &input_rows[main];
+        let pq = pulse_quality(x, &hit, dt_s, &inputs[main], settings);
+        if pq.double_hit_ratio >= settings.double_hit_ratio {
+            let delay = pq.double_hit_delay_s.unwrap_or(0.0);
+            flags.push(Flag {
+                check: Check::DoubleHit,
+                channel: Some(inputs[main].clone()),
+                message: format!(
+                    "a second force pulse {:.2} times the first, {:.3} s {} it (the limit is {})",
+                    pq.double_hit_ratio,
+                    delay.abs(),
+                    if delay >= 0.0 { "after" } else { "before" },
+                    settings.double_hit_ratio
+                ),
+            });
+        }
+        if pq.spectrum_drop_db > settings.max_force_drop_db {
+            flags.push(Flag {
+                check: Check::LongPulse,
+                channel: Some(inputs[main].clone()),
+                message: format!(
+                    "the force spectrum falls {:.1} dB between 0 and {} Hz (at most {} dB allowed), as a half-sine pulse of {:.1} ms would: the upper modes are barely excited; use a harder hammer tip",
+                    pq.spectrum_drop_db,
+                    short(pq.band_hz),
+                    settings.max_force_drop_db,
+                    1e3 * pq.equivalent_duration_s
+                ),
+            });
+        }
+        pq
+    });
+    flags.sort_by_key(|f| order_of(f.check));
+    HitQuality {
+        hit: 1,
+        file: String::new(),
+        hit_sample: is_hit.then_some(p),
+        hit_time_s: is_hit.then_some(p as f64 * dt_s),
+        noise_samples: if noise_ok && is_hit { noise_end } else { 0 },
+        pulse,
+        channels,
+        flags,
+    }
+}
+
+fn order_of(c: Check) -> usize {
+    [
+        Check::NoHit,
+        Check::DoubleHit,
+        Check::Clipping,
+        Check::LongPulse,
+        Check::NotDecayed,
+        Check::ShortPretrigger,
+        Check::LowSnr,
+    ]
+    .iter()
+    .position(|&x| x == c)
+    .unwrap_or(usize::MAX)
+}
+
+/// A number in a short readable form.
+fn short(x: f64) -> String {
+    crate::numfmt::sig(x, 3)
+}
+
+/// Where a force channel peaks, against its robust noise level.
+#[derive(Debug, Clone, Copy)]
+struct HitPeak {
+    index: usize,
+    /// Largest deviation from the median.
+    peak: f64,
+    /// Robust noise standard deviation: 1.4826 x the median absolute
+    /// deviation. The pulse and its ringing cover a few tens of samples of
+    /// a record of thousands, so the median sees only noise.
+    sigma: f64,
+    median: f64,
+}
+
+impl HitPeak {
+    fn peak_to_noise(&self) -> f64 {
+        if self.peak == 0.0 {
+            0.0
+        } else if self.sigma == 0.0 {
+            f64::INFINITY
+        } else {
+            self.peak / self.sigma
+        }
+    }
+}
+
+fn find_hit(x: &[f64]) -> HitPeak {
+    let median = median(x);
+    let dev: Vec<f64> = x.iter().map(|v| (v - median).abs()).collect();
+    let (index, peak) =
+        dev.iter().enumerate().fold(
+            (0, 0.0),
+            |best, (i, &d)| if d > best.1 { (i, d) } else { best },
+        );
+    HitPeak {
+        index,
+        peak,
+        sigma: 1.4826 * self::median(&dev),
+        median,
+    }
+}
+
+fn median(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        return 0.0;
+    }
+    let mut v = x.to_vec();
+    let mid = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
+    *m
+}
+
+fn rms_about(x: &[f64], base: f64) -> f64 {
+    if x.is_empty() {
+        return 0.0;
+    }
+    (x.iter().map(|v| (v - base) * (v - base)).sum::<f64>() / x.len() as f64).sqrt()
+}
+
+fn channel_quality(
+    x: &[f64],
+    name: &str,
+    role: Role,
+    noise_end: usize,
+    noise_ok: bool,
+    settings: &QualitySettings,
+) -> ChannelQuality {
+    let n = x.len();
+    let noise = &x[..noise_end.min(n)];
+    let base = if noise.is_empty() {
+        0.0
+    } else {
+        noise.iter().sum::<f64>() / noise.len() as f64
+    };
+    let peak = x.iter().fold(0.0_f64, |m, v| m.max((v - base).abs()));
+    let rms = rms_about(&x[noise_end.min(n)..], base);
+    let noise_rms = noise_ok.then(|| rms_about(noise, base));
+    let snr_db = noise_rms
+        .filter(|&nr| nr > 0.0 && rms > 0.0)
+        .map(|nr| 20.0 * (rms / nr).log10());
+    let (clip_run, clip_samples) = extremes(x, base, peak);
+    let range = match role {
+        Role::Input => settings.force_range,
+        Role::Output => settings.acceleration_range,
+    };
+    let range_samples = range.map_or(0, |r| {
+        let at = r * (1.0 - 1e-9);
+        x.iter().filter(|v| v.abs() >= at).count()
+    });
+    let tail_ratio = (role == Role::Output && peak > 0.0).then(|| {
+        let len = ((settings.tail_fraction * n as f64).round() as usize).clamp(1, n);
+        rms_about(&x[n - len..], base) / peak
+    });
+    ChannelQuality {
+        name: name.to_string(),
+        role,
+        peak,
+        rms,
+        noise_rms,
+        snr_db,
+        clip_run,
+        clip_samples,
+        range_samples,
+        tail_ratio,
+    }
+}
+
+/// Longest run and count of samples equal to the channel's largest and
+/// smallest value, over the sides that reach at least half the peak (the
+/// other side of a one-signed pulse, or an exactly zero pre-trigger, is
+/// not an extreme).
+fn extremes(x: &[f64], base: f64, peak: f64) -> (usize, usize) {
+    if peak == 0.0 || x.is_empty() {
+        return (0, 0);
+    }
+    let hi = x.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let lo = x.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut best = (0, 0);
+    for ext in [hi, lo] {
+        if (ext - base).abs() < 0.5 * peak {
+            continue;
+        }
+        // Exact repeats (to rounding of the file's number format).
+        let tol = 1e-12 * ext.abs();
+        let mut run = 0;
+        let mut longest = 0;
+        let mut count = 0;
+        for v in x {
+            if (v - ext).abs() <= tol {
+                run += 1;
+                count += 1;
+                longest = longest.max(run);
+            } else {
+                run = 0;
+            }
+        }
+        best = (best.0.max(longest), best.1.max(count));
+    }
+    best
+}
+
+fn clipping_flag(c: &ChannelQuality, x: &[f64], settings: &QualitySettings) -> Option<Flag> {
+    let range = match c.role {
+        Role::Input => settings.force_range,
+        Role::Output => settings.acceleration_range,
+    };
+    let mut why = Vec::new();
+    if c.clip_samples >= settings.clip_samples {
+        let hi = x.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let lo = x.iter().copied().fold(f64::INFINITY, f64::min);
+        let ext = if hi.abs() >= lo.abs() { hi } else { lo };
+        why.push(format!(
+            "{} samples equal to its extreme {} ({} in a row; a clean signal does not repeat its extreme)",
+            c.clip_samples,
+            short(ext),
+            c.clip_run
+        ));
+    }
+    if let Some(r) = range
+        && c.range_samples > 0
+    {
+        why.push(format!(
+            "{} samples at or beyond the declared range +-{}",
+            c.range_samples,
+            short(r)
+        ));
+    }
+    (!why.is_empty()).then(|| Flag {
+        check: Check::Clipping,
+        channel: Some(c.name.clone()),
+        message: format!("'{}' is clipped: {}", c.name, why.join("; ")),
+    })
+}
+
+/// Half-width, in samples, of the window around the main pulse used for its
+/// spectrum: it holds the pulse and the decimation filter's ringing (the
+/// simulator's 100 dB Kaiser FIR rings for about 29 analysis samples on
+/// each side, at levels that leave the band's spectrum within 0.1 dB).
+const PULSE_WINDOW: usize = 32;
+/// Frequencies at which the force spectrum is evaluated over the band.
+const SPECTRUM_POINTS: usize = 32;
+
+fn pulse_quality(
+    x: &[f64],
+    hit: &HitPeak,
+    dt_s: f64,
+    name: &str,
+    settings: &QualitySettings,
+) -> PulseQuality {
+    let n = x.len();
+    let sign = if x[hit.index] >= hit.median {
+        1.0
+    } else {
+        -1.0
+    };
+    let y: Vec<f64> = x.iter().map(|v| sign * (v - hit.median)).collect();
+    // [1, 2, 1] / 4: zero gain at fs/2, where the filter ringing lives.
+    let g: Vec<f64> = (0..n)
+        .map(|k| {
+            let left = if k > 0 { y[k - 1] } else { 0.0 };
+            let right = if k + 1 < n { y[k + 1] } else { 0.0 };
+            0.25 * left + 0.5 * y[k] + 0.25 * right
+        })
+        .collect();
+    let lo = hit.index.saturating_sub(2);
+    let hi = (hit.index + 3).min(n);
+    let pg = (lo..hi).fold(hit.index, |b, k| if g[k] > g[b] { k } else { b });
+    let top = g[pg];
+    // Noise on the smoothed force: sqrt(6/16) of the raw noise.
+    let floor = 5.0 * 0.61 * hit.sigma;
+    let right = second_pulse(&g, pg, top, floor, settings.double_hit_valley, 1);
+    let left = second_pulse(&g, pg, top, floor, settings.double_hit_valley, -1);
+    let (ratio, delay) = match (right, left) {
+        (Some(r), Some(l)) if l.height > r.height => (l.height / top, Some(l.offset)),
+        (Some(r), _) => (r.height / top, Some(r.offset)),
+        (None, Some(l)) => (l.height / top, Some(l.offset)),
+        (None, None) => (0.0, None),
+    };
+    // The spectrum window: the main pulse and its ringing, but not past the
+    // valley before a second pulse.
+    let extent = |dir: isize| -> usize {
+        let mut k = pg as isize;
+        let mut steps = 0;
+        while k + dir >= 0 && ((k + dir) as usize) < n && g[(k + dir) as usize] > 0.1 * top {
+            k += dir;
+            steps += 1;
+        }
+        steps
+    };
+    let mut start = pg.saturating_sub(PULSE_WINDOW + extent(-1));
+    let mut end = (pg + PULSE_WINDOW + extent(1) + 1).min(n);
+    let significant = |s: &SecondPulse| s.height >= settings.double_hit_ratio * top;
+    if let Some(l) = left.filter(significant) {
+        start = start.max(l.valley + 1);
+    }
+    if let Some(r) = right.filter(significant) {
+        end = end.min(r.valley);
+    }
+    let fs = 1.0 / dt_s;
+    let band_hz = settings.band_hz.unwrap_or(fs / 2.56).min(0.5 * fs);
+    let mags: Vec<(f64, f64)> = (0..=SPECTRUM_POINTS)
+        .map(|j| {
+            let f = band_hz * j as f64 / SPECTRUM_POINTS as f64;
+            let w = 2.0 * std::f64::consts::PI * f * dt_s;
+            let (mut re, mut im) = (0.0, 0.0);
+            for k in start..end {
+                let ph = w * (k - start) as f64;
+                re += y[k] * ph.cos();
+                im -= y[k] * ph.sin();
+            }
+            (f, re.hypot(im))
+        })
+        .collect();
+    let max = mags.iter().map(|m| m.1).fold(0.0, f64::max);
+    let (f_min, min) = mags
+        .iter()
+        .copied()
+        .fold((0.0, f64::INFINITY), |b, m| if m.1 < b.1 { m } else { b });
+    let drop_db = if max > 0.0 && min > 0.0 {
+        20.0 * (max / min).log10()
+    } else if max > 0.0 {
+        f64::INFINITY
+    } else {
+        0.0
+    };
+    // The half-sine duration with the same fall at the band edge; if the
+    // spectrum dips deeper inside the band (past the first lobe), at the
+    // dip instead.
+    let (_, edge) = mags[SPECTRUM_POINTS];
+    let equivalent_duration_s = if max <= 0.0 {
+        0.0
+    } else if f_min > 0.0 && min < 0.7 * edge {
+        half_sine_fraction_inverse(min / max) / f_min
+    } else {
+        half_sine_fraction_inverse(edge / max) / band_hz
+    };
+    PulseQuality {
+        channel: name.to_string(),
+        peak_to_noise_db: (hit.sigma > 0.0).then(|| 20.0 * (hit.peak / hit.sigma).log10()),
+        double_hit_ratio: ratio,
+        double_hit_delay_s: delay.map(|d| d as f64 * dt_s),
+        band_hz,
+        spectrum_drop_db: drop_db.min(999.0),
+        equivalent_duration_s,
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct SecondPulse {
+    /// Signed offset from the main pulse, samples.
+    offset: isize,
+    height: f64,
+    /// Sample of the lowest smoothed force between the two pulses.
+    valley: usize,
+}
+
+/// The highest local maximum of the smoothed force `g` on one side
+/// (`dir` = 1 after, -1 before) of the main pulse at `pg` that is
+/// separated from it by a valley (the force falls to `valley` times the
+/// candidate's height in between) and stands above the noise floor.
+fn second_pulse(
+    g: &[f64],
+    pg: usize,
+    top: f64,
+    floor: f64,
+    valley: f64,
+    dir: isize,
+) -> Option<SecondPulse> {
+    let n = g.len() as isize;
+    let mut best: Option<SecondPulse> = None;
+    let mut lowest = top;
+    let mut lowest_at = pg;
+    let mut k = pg as isize + dir;
+    while k >= 0 && k < n {
+        let ku = k as usize;
+        let v = g[ku];
+        if v < lowest {
+            lowest = v;
+            lowest_at = ku;
+        }
+        let prev = g[(k - dir) as usize];
+        let next = if k + dir >= 0 && k + dir < n {
+            g[(k + dir) as usize]
+        } else {
+            f64::NEG_INFINITY
+        };
+        let is_peak = v > 0.0 && v >= prev && v >= next;
+        if is_peak && v > floor && lowest <= valley * v && best.is_none_or(|b| v > b.height) {
+            best = Some(SecondPulse {
+                offset: k - pg as isize,
+                height: v,
+                valley: lowest_at,
+            });
+        }
+        k += dir;
+    }
+    best
+}
+
+/// Amplitude spectrum of a half-sine pulse of duration T at frequency f,
+/// relative to its value at 0, as a function of u = f T:
+/// `|cos(pi u) / (1 - 4 u^2)|` (pi/4 at u = 1/2). Decreasing on [0, 1.5).
+fn half_sine_fraction(u: f64) -> f64 {
+    let d = 1.0 - 4.0 * u * u;
+    if d.abs() < 1e-9 {
+        std::f64::consts::FRAC_PI_4
+    } else {
+        ((std::f64::consts::PI * u).cos() / d).abs()
+    }
+}
+
+/// The u in [0, 1.5] with `half_sine_fraction(u) = ratio` (1.5 if the
+/// ratio is below what the main lobe reaches).
+fn half_sine_fraction_inverse(ratio: f64) -> f64 {
+    if ratio >= 1.0 {
+        return 0.0;
+    }
+    let (mut a, mut b) = (0.0, 1.5);
+    for _ in 0..60 {
+        let m = 0.5 * (a + b);
+        if half_sine_fraction(m) > ratio {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    0.5 * (a + b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn half_sine_spectrum_and_its_inverse() {
+        assert!((half_sine_fraction(0.0) - 1.0).abs() < 1e-15);
+        assert!((half_sine_fraction(0.5) - std::f64::consts::FRAC_PI_4).abs() < 1e-6);
+        // f T = 1: cos(pi) / (1 - 4) = 1/3.
+        assert!((half_sine_fraction(1.0) - 1.0 / 3.0).abs() < 1e-12);
+        for u in [0.05, 0.3, 0.5, 0.9, 1.2, 1.4] {
+            let r = half_sine_fraction(u);
+            assert!((half_sine_fraction_inverse(r) - u).abs() < 1e-6, "{u}");
+        }
+        // 12 dB at f T of about 1.1.
+        let u12 = half_sine_fraction_inverse(10f64.powf(-12.0 / 20.0));
+        assert!((u12 - 1.1).abs() < 0.03, "{u12}");
+    }
+
+    #[test]
+    fn median_of_odd_and_even() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[]), 0.0);
+    }
+
+    #[test]
+    fn default_settings_are_valid_and_checked() {
+        QualitySettings::default().check().unwrap();
+        let bad = QualitySettings {
+            double_hit_ratio: -1.0,
+            ..Default::default()
+        };
+        assert!(bad.check().unwrap_err().contains("double_hit_ratio"));
+    }
+}

@@ -1,0 +1,278 @@
+//! Campaigns, channel selection across formats, and atomic writing.
+
+use std::path::{Path, PathBuf};
+
+use records::{
+    CampaignMismatch, Channel, ChannelSpec, Format, IoOp, ReadOptions, RecordError, RecordFile,
+    Uff58Encoding, check_campaign, read_campaign, read_record, write_csv, write_uff58,
+};
+
+fn record(n: usize, dt: f64) -> RecordFile {
+    RecordFile {
+        path: "mem".into(),
+        format: Format::Csv { delimiter: b',' },
+        dt_s: dt,
+        start_s: 0.0,
+        channels: ["force", "acc1", "acc2"]
+            .iter()
+            .enumerate()
+            .map(|(k, name)| Channel {
+                name: name.to_string(),
+                unit: None,
+                node: Some(k as i64),
+                direction: Some(1),
+                id_line: None,
+                values: (0..n).map(|i| (i * (k + 1)) as f64 * 0.5).collect(),
+            })
+            .collect(),
+    }
+}
+
+fn write(dir: &Path, name: &str, rec: &RecordFile) -> PathBuf {
+    let p = dir.join(name);
+    if name.ends_with(".csv") {
+        write_csv(&p, rec).unwrap();
+    } else {
+        write_uff58(
+            &p,
+            rec,
+            if name.ends_with(".bin.uff") {
+                Uff58Encoding::Binary
+            } else {
+                Uff58Encoding::Ascii
+            },
+        )
+        .unwrap();
+    }
+    p
+}
+
+#[test]
+fn campaign_of_matching_records() {
+    let dir = tempfile::tempdir().unwrap();
+    let paths = [
+        write(dir.path(), "hit1.csv", &record(100, 1e-3)),
+        write(dir.path(), "hit2.uff", &record(100, 1e-3)),
+        write(dir.path(), "hit3.bin.uff", &record(100, 1e-3)),
+    ];
+    let recs = read_campaign(&paths, &ReadOptions::default()).unwrap();
+    assert_eq!(recs.len(), 3);
+    assert_eq!(recs[1].format, Format::Uff58Ascii);
+    assert_eq!(recs[2].format, Format::Uff58Binary);
+}
+
+#[test]
+fn campaign_length_mismatch_names_both_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = write(dir.path(), "hit1.csv", &record(100, 1e-3));
+    let b = write(dir.path(), "hit2.csv", &record(100, 1e-3));
+    let c = write(dir.path(), "hit3.uff", &record(99, 1e-3));
+    let e = read_campaign(&[a.clone(), b, c.clone()], &ReadOptions::default()).unwrap_err();
+    match &e {
+        RecordError::Campaign {
+            reference,
+            other,
+            mismatch,
+        } => {
+            assert_eq!((reference, other), (&a, &c));
+            assert_eq!(
+                mismatch,
+                &CampaignMismatch::Length {
+                    reference: 100,
+                    other: 99
+                }
+            );
+        }
+        _ => panic!("{e}"),
+    }
+    assert_eq!(
+        e.to_string(),
+        format!(
+            "campaign records differ in length: {} has 99 samples but {} has 100",
+            c.display(),
+            a.display()
+        )
+    );
+}
+
+#[test]
+fn campaign_sampling_mismatch_names_both_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = write(dir.path(), "hit1.csv", &record(100, 1.0 / 2048.0));
+    let b = write(dir.path(), "hit2.bin.uff", &record(100, 1.0 / 2000.0));
+    let e = read_campaign(&[&a, &b], &ReadOptions::default()).unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        matches!(
+            e,
+            RecordError::Campaign {
+                mismatch: CampaignMismatch::SamplingInterval { .. },
+                ..
+            }
+        ),
+        "{msg}"
+    );
+    assert!(
+        msg.starts_with("campaign records differ in sampling: ")
+            && msg.contains(&format!("{} has dt = 0.0005 s (2000 Hz)", b.display()))
+            && msg.contains(&format!(
+                "but {} has dt = 0.00048828125 s (2048 Hz)",
+                a.display()
+            )),
+        "{msg}"
+    );
+}
+
+#[test]
+fn campaign_tolerates_uff_six_digit_interval() {
+    // pyuff stored 1/2048 s as 4.88281e-04; a CSV at 2048 Hz is the same
+    // sampling.
+    let dir = tempfile::tempdir().unwrap();
+    let csv = write(dir.path(), "hit1.csv", &record(300, 1.0 / 2048.0));
+    let uff = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/pyuff_ascii_even.uff");
+    let recs = read_campaign(&[csv, uff], &ReadOptions::default()).unwrap();
+    assert_ne!(recs[0].dt_s, recs[1].dt_s);
+}
+
+#[test]
+fn campaign_errors() {
+    let none: [&Path; 0] = [];
+    assert!(matches!(
+        read_campaign(&none, &ReadOptions::default()),
+        Err(RecordError::EmptyCampaign)
+    ));
+    assert!(matches!(
+        check_campaign(&[]),
+        Err(RecordError::EmptyCampaign)
+    ));
+    let dir = tempfile::tempdir().unwrap();
+    let a = write(dir.path(), "hit1.csv", &record(10, 1e-3));
+    let missing = dir.path().join("hit2.csv");
+    let e = read_campaign(&[&a, &missing], &ReadOptions::default()).unwrap_err();
+    assert!(matches!(e, RecordError::Io { op: IoOp::Read, .. }));
+    assert!(
+        e.to_string()
+            .starts_with(&format!("{}: cannot read the file: ", missing.display())),
+        "{e}"
+    );
+}
+
+#[test]
+fn selecting_channels_of_an_analyzer_file() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/pyuff_binary_even.uff");
+    let r = read_record(&path, &ReadOptions::default()).unwrap();
+    let get = |s: &str| {
+        r.channel(&s.parse::<ChannelSpec>().unwrap())
+            .map(|c| c.name.clone())
+    };
+    assert_eq!(get("id:hammer").unwrap(), "Hammer floor 3");
+    assert_eq!(get("id:Floor 1 ACC").unwrap(), "Floor 1 acc");
+    assert_eq!(get("2:-X").unwrap(), "Floor 2 acc");
+    assert_eq!(get("node3:+x").unwrap(), "Hammer floor 3");
+    assert_eq!(get("#2").unwrap(), "Floor 1 acc");
+    assert_eq!(get("floor 2 ACC").unwrap(), "Floor 2 acc");
+    let e = get("id:floor").unwrap_err();
+    assert!(matches!(e, RecordError::AmbiguousChannel { .. }));
+    assert!(e.to_string().contains("#1 Hammer floor 3 [N] (node 3 +X), #2 Floor 1 acc [m/s^2] (node 1 +X), #3 Floor 2 acc [m/s^2] (node 2 -X)"), "{e}");
+    let e = get("4:+X").unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        format!(
+            "{}: no channel matches '4:+X'; available channels: #1 Hammer floor 3 [N] (node 3 +X), \
+             #2 Floor 1 acc [m/s^2] (node 1 +X), #3 Floor 2 acc [m/s^2] (node 2 -X)",
+            path.display()
+        )
+    );
+}
+
+#[test]
+fn failed_writes_leave_no_trace() {
+    let dir = tempfile::tempdir().unwrap();
+    // Directory that does not exist.
+    let p = dir.path().join("missing/out.csv");
+    let e = write_csv(&p, &record(10, 1e-3)).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            RecordError::Io {
+                op: IoOp::CreateTemp,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(
+        e.to_string()
+            .contains("cannot create a temporary file next to it")
+    );
+    // Target is a directory: the rename fails, the temporary file goes.
+    let target = dir.path().join("taken");
+    std::fs::create_dir(&target).unwrap();
+    std::fs::write(target.join("keep"), "x").unwrap();
+    let e = write_uff58(&target, &record(10, 1e-3), Uff58Encoding::Binary).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            RecordError::Io {
+                op: IoOp::Replace,
+                ..
+            }
+        ),
+        "{e}"
+    );
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, ["taken"]);
+    // A refused record does not touch an existing file.
+    let p = dir.path().join("hit.csv");
+    write_csv(&p, &record(10, 1e-3)).unwrap();
+    let before = std::fs::read(&p).unwrap();
+    let mut bad = record(10, 1e-3);
+    bad.channels[1].values[4] = f64::NAN;
+    assert!(write_csv(&p, &bad).is_err());
+    assert!(write_uff58(&p, &bad, Uff58Encoding::Ascii).is_err());
+    assert_eq!(std::fs::read(&p).unwrap(), before);
+    // Overwriting works and leaves only the target.
+    write_uff58(&p, &record(10, 1e-3), Uff58Encoding::Ascii).unwrap();
+    assert_eq!(
+        read_record(&p, &ReadOptions::default()).unwrap().format,
+        Format::Uff58Ascii
+    );
+    let mut names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["hit.csv", "taken"]);
+}
+
+#[cfg(unix)]
+#[test]
+fn written_files_are_not_private() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "hit.csv", &record(10, 1e-3));
+    let mode = std::fs::metadata(&p).unwrap().permissions().mode() & 0o777;
+    // 0666 minus the umask, as for any ordinarily created file (a
+    // temporary file alone would be 0600).
+    let probe = dir.path().join("probe");
+    std::fs::write(&probe, "").unwrap();
+    let ordinary = std::fs::metadata(&probe).unwrap().permissions().mode() & 0o777;
+    assert_eq!(mode, ordinary);
+}
+
+#[test]
+fn names_with_parentheses_match_whole() {
+    let mut rec = record(4, 1e-3);
+    rec.channels[1].name = "Acc (roof)".into();
+    rec.channels[2].name = "Acc".into();
+    let get = |s: &str| {
+        rec.channel(&s.parse::<ChannelSpec>().unwrap())
+            .map(|c| c.name.clone())
+    };
+    assert_eq!(get("acc (ROOF)").unwrap(), "Acc (roof)");
+    assert_eq!(get("acc [m/s^2]").unwrap(), "Acc");
+    assert_eq!(get("Acc").unwrap(), "Acc");
+}

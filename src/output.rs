@@ -1,0 +1,679 @@
+//! Rendering of outcomes: readable tables on the terminal and the JSON
+//! documents of `frameid identify --json` (schema in the README). Nothing
+//! here computes; everything is formatting of library results.
+
+use ident::refine::Refinement;
+use ident::{Identification, Jackknife};
+use nalgebra::DMatrix;
+use records::numfmt::sig;
+use records::quality::HitQuality;
+use serde::Serialize;
+use study::analysis::Analysis;
+use study::score::{MatrixEstimate, ScoreKey};
+use study::sweep::Summary;
+
+/// A matrix as an array of rows.
+pub fn rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
+    (0..m.nrows())
+        .map(|i| m.row(i).iter().copied().collect())
+        .collect()
+}
+
+/// A matrix as aligned rows with 5 significant digits.
+pub fn matrix(title: &str, m: &DMatrix<f64>) -> String {
+    let mut s = format!("{title}\n");
+    for i in 0..m.nrows() {
+        s.push_str("  ");
+        for j in 0..m.ncols() {
+            s.push_str(&format!("{:>13}", sig(m[(i, j)], 5)));
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// `value ± std` with the std to 2 significant digits and the value to
+/// the same decimal place (at least `digits` significant digits without a
+/// std).
+pub fn plus_minus(value: f64, std: Option<f64>, digits: usize) -> String {
+    match std {
+        Some(s) if s.is_finite() && s > 0.0 && value.is_finite() => {
+            let std_mag = s.log10().floor() as i32;
+            let decimals = (1 - std_mag).max(0) as usize;
+            let vmag = value.abs().max(s).log10().floor() as i32;
+            if (-3..6).contains(&vmag) && decimals <= 8 {
+                format!("{value:.decimals$} ± {s:.decimals$}")
+            } else {
+                format!("{} ± {}", sig(value, digits), sig(s, 2))
+            }
+        }
+        _ => sig(value, digits),
+    }
+}
+
+/// A matrix as aligned rows of `value ± std` (or plain values).
+pub fn matrix_table(title: &str, value: &[Vec<f64>], std: Option<&[Vec<f64>]>) -> String {
+    let cells: Vec<Vec<String>> = value
+        .iter()
+        .enumerate()
+        .map(|(i, row)| {
+            row.iter()
+                .enumerate()
+                .map(|(j, &v)| plus_minus(v, std.map(|s| s[i][j]), 5))
+                .collect()
+        })
+        .collect();
+    let width = cells
+        .iter()
+        .flatten()
+        .map(|c| c.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max(11)
+        + 2;
+    let mut out = format!("{title}\n");
+    for row in &cells {
+        out.push_str("  ");
+        for c in row {
+            out.push_str(&format!("{c:>width$}"));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// The maximum-likelihood refinement in the JSON output.
+#[derive(Debug, Clone, Serialize)]
+pub struct RefinedReport {
+    pub mass: Vec<Vec<f64>>,
+    pub mass_std: Vec<Vec<f64>>,
+    pub stiffness: Vec<Vec<f64>>,
+    pub stiffness_std: Vec<Vec<f64>>,
+    pub damping: Vec<Vec<f64>>,
+    pub damping_std: Vec<Vec<f64>>,
+    pub modes: Vec<RefinedMode>,
+    /// Estimated noise standard deviations: per output, per input.
+    pub noise_outputs: Vec<f64>,
+    pub noise_inputs: Vec<f64>,
+    pub iterations: usize,
+    /// Why the optimizer stopped (`Gradient`, `Step`, `Cost`, `MaxIterations`, `NoProgress`).
+    pub stop: String,
+    pub converged: bool,
+    pub initial_cost: f64,
+    pub cost: f64,
+}
+
+/// A mode of the refined model with standard errors (delta method).
+#[derive(Debug, Clone, Serialize)]
+pub struct RefinedMode {
+    pub frequency_hz: f64,
+    pub frequency_std_hz: f64,
+    pub damping_ratio: f64,
+    pub damping_ratio_std: f64,
+    pub mode_shape: Vec<[f64; 2]>,
+}
+
+impl RefinedReport {
+    pub fn new(r: &Refinement) -> Self {
+        let u = &r.uncertainty;
+        RefinedReport {
+            mass: rows(&r.mass),
+            mass_std: rows(&u.mass_std),
+            stiffness: rows(&r.stiffness),
+            stiffness_std: rows(&u.stiffness_std),
+            damping: rows(&r.damping),
+            damping_std: rows(&u.damping_std),
+            modes: u
+                .modes
+                .iter()
+                .map(|m| RefinedMode {
+                    frequency_hz: m.frequency_hz,
+                    frequency_std_hz: m.frequency_std_hz,
+                    damping_ratio: m.damping_ratio,
+                    damping_ratio_std: m.damping_ratio_std,
+                    mode_shape: m.shape.iter().map(|z| [z.re, z.im]).collect(),
+                })
+                .collect(),
+            noise_outputs: r.noise.outputs.clone(),
+            noise_inputs: r.noise.inputs.clone(),
+            iterations: r.iterations,
+            stop: format!("{:?}", r.stop),
+            converged: r.stop.converged(),
+            initial_cost: r.initial_cost,
+            cost: r.cost,
+        }
+    }
+
+    /// Readable tables (value ± standard error).
+    pub fn human(&self) -> String {
+        let mut out = String::from("\nRefined by maximum likelihood (value ± standard error)\n");
+        for m in &self.modes {
+            out.push_str(&format!(
+                "  f = {} Hz, xi = {} %\n",
+                plus_minus(m.frequency_hz, Some(m.frequency_std_hz), 6),
+                plus_minus(
+                    100.0 * m.damping_ratio,
+                    Some(100.0 * m.damping_ratio_std),
+                    4
+                )
+            ));
+        }
+        out.push_str(&matrix_table(
+            "Mass M [kg]",
+            &self.mass,
+            Some(&self.mass_std),
+        ));
+        out.push_str(&matrix_table(
+            "Stiffness K [N/m]",
+            &self.stiffness,
+            Some(&self.stiffness_std),
+        ));
+        out.push_str(&matrix_table(
+            "Damping [N s/m]",
+            &self.damping,
+            Some(&self.damping_std),
+        ));
+        out.push_str(&format!(
+            "  noise std: outputs {}, input {}; {} iterations, stopped on {} (cost {} -> {})\n",
+            self.noise_outputs
+                .iter()
+                .map(|x| sig(*x, 3))
+                .collect::<Vec<_>>()
+                .join(", "),
+            self.noise_inputs
+                .iter()
+                .map(|x| sig(*x, 3))
+                .collect::<Vec<_>>()
+                .join(", "),
+            self.iterations,
+            self.stop,
+            sig(self.initial_cost, 4),
+            sig(self.cost, 4)
+        ));
+        out
+    }
+}
+
+/// Where the identification came from.
+#[derive(Debug, Clone, Serialize)]
+pub struct Source {
+    pub files: Vec<String>,
+    pub realization: bool,
+    pub dt_s: f64,
+    pub hits: usize,
+    pub samples: usize,
+    pub inputs: Vec<String>,
+    pub outputs: Vec<String>,
+    pub collocated: Collocated,
+}
+
+/// Zero-based indices of the collocated pair among outputs and inputs.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct Collocated {
+    pub output: usize,
+    pub input: usize,
+}
+
+/// One identified mode in the JSON output.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModeReport {
+    pub frequency_hz: f64,
+    pub damping_ratio: f64,
+    /// Output shape `C psi` as `[re, im]` per output, largest component `[1, 0]`.
+    pub mode_shape: Vec<[f64; 2]>,
+    /// Output EMAC x input EMAC (null for a given realization).
+    pub emac: Option<f64>,
+    pub emac_output: Option<f64>,
+    pub emac_input: Option<f64>,
+    pub mpc: f64,
+    pub msv: f64,
+    pub cmi: f64,
+    pub structural: bool,
+    /// Used by MKR and the Rayleigh fit.
+    pub used: bool,
+}
+
+/// Rayleigh coefficients.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct RayleighReport {
+    pub alpha: f64,
+    pub beta: f64,
+}
+
+/// The JSON document of `frameid identify --json` (schema in the README).
+#[derive(Debug, Clone, Serialize)]
+pub struct IdentifyReport {
+    pub frameid_version: String,
+    pub source: Source,
+    pub intersample: String,
+    pub model_order: usize,
+    pub observer: Option<ident::pipeline::ObserverSummary>,
+    pub hankel_singular_values: Vec<f64>,
+    pub modes: Vec<ModeReport>,
+    pub rayleigh: RayleighReport,
+    pub mass: Vec<Vec<f64>>,
+    pub stiffness: Vec<Vec<f64>>,
+    pub damping_mkr: Vec<Vec<f64>>,
+    pub damping_rayleigh: Vec<Vec<f64>>,
+    pub consistency: f64,
+    pub polarity_flipped: bool,
+    pub warnings: Vec<String>,
+    /// Quality checks of every hit given (empty for a realization).
+    pub hit_quality: Vec<HitQuality>,
+    /// Files of the hits left out by `--drop-bad-hits`.
+    pub dropped_hits: Vec<String>,
+    /// Error bars over the hits (null for a realization, with
+    /// `--no-uncertainty`, or with fewer than 3 hits).
+    pub uncertainty: Option<Jackknife>,
+    /// Why there are no error bars, if there are none for records.
+    pub uncertainty_skipped: Option<String>,
+    /// Indices into `modes` of the modes used, in the order of the
+    /// uncertainty's per-mode lists.
+    #[serde(skip)]
+    pub mkr_modes: Vec<usize>,
+    /// The maximum-likelihood refinement (with `--refine`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refined: Option<RefinedReport>,
+}
+
+impl IdentifyReport {
+    pub fn new(r: &Identification, source: Source) -> Self {
+        let modes = r
+            .modes
+            .iter()
+            .enumerate()
+            .map(|(i, m)| ModeReport {
+                frequency_hz: m.frequency_hz,
+                damping_ratio: m.damping_ratio,
+                mode_shape: m.shape.iter().map(|z| [z.re, z.im]).collect(),
+                emac: m
+                    .indicators
+                    .emac_output
+                    .zip(m.indicators.emac_input)
+                    .map(|(o, i)| o * i),
+                emac_output: m.indicators.emac_output,
+                emac_input: m.indicators.emac_input,
+                mpc: m.indicators.mpc,
+                msv: m.indicators.msv,
+                cmi: m.indicators.cmi,
+                structural: m.structural,
+                used: r.mkr_modes.contains(&i),
+            })
+            .collect();
+        IdentifyReport {
+            frameid_version: env!("CARGO_PKG_VERSION").into(),
+            source,
+            intersample: r.intersample.to_string(),
+            model_order: r.model_order,
+            observer: r.observer,
+            hankel_singular_values: r.hankel_singular_values.iter().copied().collect(),
+            modes,
+            rayleigh: RayleighReport {
+                alpha: r.rayleigh.alpha,
+                beta: r.rayleigh.beta,
+            },
+            mass: rows(&r.mass),
+            stiffness: rows(&r.stiffness),
+            damping_mkr: rows(&r.damping_mkr),
+            damping_rayleigh: rows(&r.damping_rayleigh),
+            consistency: r.consistency,
+            polarity_flipped: r.polarity_flipped,
+            warnings: r.warnings.iter().map(ToString::to_string).collect(),
+            hit_quality: Vec::new(),
+            dropped_hits: Vec::new(),
+            uncertainty: None,
+            uncertainty_skipped: None,
+            mkr_modes: r.mkr_modes.clone(),
+            refined: None,
+        }
+    }
+
+    /// The document of an analysis of records.
+    pub fn from_analysis(a: &Analysis) -> Self {
+        let c = &a.campaign;
+        let id = &a.identification;
+        let source = Source {
+            files: c.labels.clone(),
+            realization: false,
+            dt_s: c.dt_s,
+            hits: c.len(),
+            samples: c.longest(),
+            inputs: c.inputs.clone(),
+            outputs: c.outputs.clone(),
+            collocated: Collocated {
+                output: a.collocated.output,
+                input: a.collocated.input,
+            },
+        };
+        let mut report = IdentifyReport::new(id, source);
+        report.warnings = a.warnings.clone();
+        report.hit_quality = a.hit_quality.clone();
+        report.dropped_hits = a
+            .dropped
+            .iter()
+            .map(|&i| a.hit_quality[i].file.clone())
+            .collect();
+        report.uncertainty = a.uncertainty.clone();
+        report.uncertainty_skipped = a.uncertainty_skipped.clone();
+        report.refined = a.refinement.as_ref().map(RefinedReport::new);
+        report
+    }
+
+    /// Readable tables.
+    pub fn human(&self) -> String {
+        let s = &self.source;
+        let mut out = String::new();
+        if s.realization {
+            out.push_str(&format!(
+                "realization {} (dt = {} s)\n",
+                s.files.join(", "),
+                sig(s.dt_s, 6)
+            ));
+        } else {
+            out.push_str(&format!(
+                "{} record(s), {} samples, dt = {} s ({} Hz)\n",
+                s.hits,
+                s.samples,
+                sig(s.dt_s, 6),
+                sig(1.0 / s.dt_s, 6)
+            ));
+        }
+        out.push_str(&format!(
+            "inputs: {}; outputs (DOF order): {}; collocated: {} / {}; intersample: {}\n",
+            s.inputs.join(", "),
+            s.outputs.join(", "),
+            s.outputs[s.collocated.output],
+            s.inputs[s.collocated.input],
+            self.intersample
+        ));
+        if let Some(o) = &self.observer {
+            out.push_str(&format!(
+                "OKID: observer order {}, input leads {}, rank {}/{}, rcond {:.1e}, relative residual {:.2e}\n",
+                o.order, o.leads, o.rank, o.unknowns, o.rcond, o.relative_residual
+            ));
+        }
+        if !self.hit_quality.is_empty() {
+            out.push_str(&self.quality_table());
+        }
+        out.push_str(&format!("model order {}\n", self.model_order));
+        let u = self.uncertainty.as_ref();
+        match (u, &self.uncertainty_skipped) {
+            (Some(u), _) => out.push_str(&format!(
+                "error bars: +- one standard error, {} over {} hits ({} resamples at model order {})\n",
+                u.method, u.hits, u.resamples, u.model_order
+            )),
+            (None, Some(why)) if !s.realization => {
+                out.push_str(&format!("no error bars: {why}\n"));
+            }
+            _ => {}
+        }
+        out.push_str("\nModes\n");
+        let rows: Vec<[String; 8]> = self
+            .modes
+            .iter()
+            .enumerate()
+            .map(|(i, m)| {
+                let k = self.mkr_modes.iter().position(|&j| j == i);
+                let f_std = u.zip(k).map(|(u, k)| u.frequencies_hz.std[k]);
+                let xi_std = u.zip(k).map(|(u, k)| 100.0 * u.damping_ratios.std[k]);
+                [
+                    format!("{}", i + 1),
+                    plus_minus(m.frequency_hz, f_std, 6),
+                    plus_minus(100.0 * m.damping_ratio, xi_std, 4),
+                    m.emac.map_or("-".to_string(), |e| format!("{e:.3}")),
+                    format!("{:.3}", m.mpc),
+                    format!("{:.3}", m.cmi),
+                    if m.structural { "yes" } else { "no" }.to_string(),
+                    if m.used { "yes" } else { "" }.to_string(),
+                ]
+            })
+            .collect();
+        let head = [
+            "#",
+            "f [Hz]",
+            "xi [%]",
+            "EMAC",
+            "MPC",
+            "CMI",
+            "structural",
+            "used",
+        ];
+        let widths: Vec<usize> = (0..head.len())
+            .map(|c| {
+                rows.iter()
+                    .map(|r| r[c].chars().count())
+                    .chain([head[c].len()])
+                    .max()
+                    .unwrap_or(0)
+            })
+            .collect();
+        out.push(' ');
+        for (c, h) in head.iter().enumerate() {
+            out.push_str(&format!(" {h:>w$}", w = widths[c] + 1));
+        }
+        out.push('\n');
+        for r in &rows {
+            out.push(' ');
+            for (c, cell) in r.iter().enumerate() {
+                out.push_str(&format!(" {cell:>w$}", w = widths[c] + 1));
+            }
+            out.push('\n');
+        }
+        out.push_str("\nMode shapes of the modes used (outputs, magnitude and phase in degrees)\n");
+        for m in self.modes.iter().filter(|m| m.used) {
+            out.push_str(&format!("  {} Hz:", sig(m.frequency_hz, 5)));
+            for (name, z) in s.outputs.iter().zip(&m.mode_shape) {
+                let mag = z[0].hypot(z[1]);
+                let ph = z[1].atan2(z[0]).to_degrees();
+                out.push_str(&format!("  {name} {} at {:.1} deg", sig(mag, 4), ph));
+            }
+            out.push('\n');
+        }
+        out.push_str(&format!(
+            "\nRayleigh: alpha = {} 1/s, beta = {} s\n\n",
+            plus_minus(self.rayleigh.alpha, u.map(|u| u.rayleigh_alpha.std), 5),
+            plus_minus(self.rayleigh.beta, u.map(|u| u.rayleigh_beta.std), 5)
+        ));
+        match u {
+            Some(u) => {
+                out.push_str(&matrix_table("Mass M [kg]", &self.mass, Some(&u.mass.std)));
+                out.push_str(&matrix_table(
+                    "Stiffness K [N/m]",
+                    &self.stiffness,
+                    Some(&u.stiffness.std),
+                ));
+                out.push_str(&matrix_table(
+                    "Damping, MKR [N s/m]",
+                    &self.damping_mkr,
+                    Some(&u.damping_mkr.std),
+                ));
+                out.push_str(&matrix_table(
+                    "Damping, Rayleigh alpha M + beta K [N s/m]",
+                    &self.damping_rayleigh,
+                    Some(&u.damping_rayleigh.std),
+                ));
+            }
+            None => {
+                let m = |rows: &Vec<Vec<f64>>| {
+                    DMatrix::from_fn(rows.len(), rows.len(), |i, j| rows[i][j])
+                };
+                out.push_str(&matrix("Mass M [kg]", &m(&self.mass)));
+                out.push_str(&matrix("Stiffness K [N/m]", &m(&self.stiffness)));
+                out.push_str(&matrix("Damping, MKR [N s/m]", &m(&self.damping_mkr)));
+                out.push_str(&matrix(
+                    "Damping, Rayleigh alpha M + beta K [N s/m]",
+                    &m(&self.damping_rayleigh),
+                ));
+            }
+        }
+        out.push_str(&format!(
+            "\nSecond-order consistency ||W W^T|| / ||W L W^T|| = {:.3e} (0 for an exact second-order system)\n",
+            self.consistency
+        ));
+        if self.polarity_flipped {
+            out.push_str("Input polarity was inverted and has been flipped.\n");
+        }
+        if let Some(r) = &self.refined {
+            out.push_str(&r.human());
+        }
+        if !self.warnings.is_empty() {
+            out.push_str("\nWarnings\n");
+            for w in &self.warnings {
+                out.push_str(&format!("  - {w}\n"));
+            }
+        }
+        out
+    }
+
+    /// The hit quality table of the human output.
+    fn quality_table(&self) -> String {
+        let names: Vec<&str> = self
+            .hit_quality
+            .first()
+            .map(|q| q.channels.iter().map(|c| c.name.as_str()).collect())
+            .unwrap_or_default();
+        let head = [
+            "hit".to_string(),
+            "file".to_string(),
+            "t [s]".to_string(),
+            "2nd pulse".to_string(),
+            "fall [dB]".to_string(),
+            format!("SNR [dB] {}", names.join("/")),
+            "tail".to_string(),
+            "checks".to_string(),
+        ];
+        let rows: Vec<Vec<String>> = self
+            .hit_quality
+            .iter()
+            .map(|q| {
+                let p = q.pulse.as_ref();
+                let snr: Vec<String> = q
+                    .channels
+                    .iter()
+                    .map(|c| c.snr_db.map_or("-".to_string(), |v| format!("{v:.0}")))
+                    .collect();
+                let checks: Vec<&str> = q.flags.iter().map(|f| f.check.label()).collect();
+                let mut checks_text = if checks.is_empty() {
+                    "ok".to_string()
+                } else {
+                    let mut v: Vec<&str> = Vec::new();
+                    for c in checks {
+                        if !v.contains(&c) {
+                            v.push(c);
+                        }
+                    }
+                    v.join(", ")
+                };
+                if self.dropped_hits.contains(&q.file) {
+                    checks_text.push_str(" (dropped)");
+                }
+                vec![
+                    q.hit.to_string(),
+                    q.file.clone(),
+                    q.hit_time_s.map_or("-".into(), |t| format!("{t:.3}")),
+                    p.map_or("-".into(), |p| format!("{:.2}", p.double_hit_ratio)),
+                    p.map_or("-".into(), |p| format!("{:.1}", p.spectrum_drop_db)),
+                    snr.join("/"),
+                    q.max_tail_ratio()
+                        .map_or("-".into(), |t| format!("{:.3}", t)),
+                    checks_text,
+                ]
+            })
+            .collect();
+        let widths: Vec<usize> = (0..head.len())
+            .map(|c| {
+                rows.iter()
+                    .map(|r| r[c].chars().count())
+                    .chain([head[c].chars().count()])
+                    .max()
+                    .unwrap_or(0)
+            })
+            .collect();
+        let mut out = String::from(
+            "\nHit quality (2nd pulse: second force pulse over the first; fall: force spectrum over the band; tail: end RMS over peak)\n",
+        );
+        let line = |cells: &[String]| -> String {
+            let mut l = String::from(" ");
+            for (c, cell) in cells.iter().enumerate() {
+                if c == 1 || c + 1 == cells.len() {
+                    l.push_str(&format!("  {cell:<w$}", w = widths[c]));
+                } else {
+                    l.push_str(&format!("  {cell:>w$}", w = widths[c]));
+                }
+            }
+            l.trim_end().to_string() + "\n"
+        };
+        out.push_str(&line(&head));
+        for r in &rows {
+            out.push_str(&line(r));
+        }
+        out.push('\n');
+        out
+    }
+}
+
+/// Median errors per noise level: frequencies and damping ratios (worst
+/// mode), M, K and the damping estimates (MKR, Rayleigh and, if the sweep
+/// refines, maximum likelihood).
+pub fn summary_table(s: &Summary) -> String {
+    let refined = s.plan.scenario.identification.refine;
+    let mut out = String::from(
+        "  axis         noise   fail  f err    xi err   M err    K err    R(MKR)   R(Rayl.)",
+    );
+    out.push_str(if refined {
+        "  R(ML)    (medians, worst mode)\n"
+    } else {
+        "  (medians, worst mode)\n"
+    });
+    let dofs = s.plan.scenario.structure.dofs();
+    for l in &s.levels {
+        let med = |key: ScoreKey| l.scores.get(&key).and_then(|st| st.median);
+        let worst = |key: fn(usize) -> ScoreKey| {
+            (1..=dofs)
+                .filter_map(|j| med(key(j)))
+                .fold(None, |a: Option<f64>, x| Some(a.map_or(x, |a| a.max(x))))
+        };
+        let cell = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.2e}"));
+        let matrix = |m| cell(med(ScoreKey::Matrix(m)));
+        out.push_str(&format!(
+            "  {:<10} {:>6}%  {:>4}  {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
+            l.axis_value
+                .as_ref()
+                .map(ToString::to_string)
+                .unwrap_or_default(),
+            sig(100.0 * l.noise, 3),
+            format!("{:.0}%", 100.0 * l.failure_rate),
+            cell(worst(|mode| ScoreKey::Frequency {
+                mode,
+                refined: false
+            })),
+            cell(worst(|mode| ScoreKey::DampingRatio {
+                mode,
+                refined: false
+            })),
+            matrix(MatrixEstimate::Mass),
+            matrix(MatrixEstimate::Stiffness),
+            matrix(MatrixEstimate::DampingMkr),
+            matrix(MatrixEstimate::DampingRayleigh),
+        ));
+        if refined {
+            out.push_str(&format!(" {:>8}", matrix(MatrixEstimate::DampingRefined)));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plus_minus_rounds_to_the_std() {
+        assert_eq!(plus_minus(630.4392, Some(0.3312), 5), "630.44 ± 0.33");
+        assert_eq!(plus_minus(0.29131, Some(0.00012), 5), "0.29131 ± 0.00012");
+        assert_eq!(plus_minus(-425.83, Some(2.4), 5), "-425.8 ± 2.4");
+        assert_eq!(plus_minus(630.4392, None, 5), "630.44");
+        assert_eq!(plus_minus(3.2283e-5, Some(1.1e-7), 5), "3.2283e-5 ± 1.1e-7");
+    }
+}

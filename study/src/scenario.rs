@@ -1,0 +1,649 @@
+//! Scenario files (TOML): the structure, its damping, the hammer campaign
+//! and how it is identified and swept. The schema is documented in the
+//! README; every error names the file and the field.
+//!
+//! Files and the scenarios compiled into the binary ([`BUILTIN`]) go
+//! through one loader, [`LoadedScenario::from_text`], which checks
+//! everything a run needs before anything is simulated.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+use sim::{
+    CampaignSettings, DampingSpec, Dashpot, Floor, Model, ShearFrame, SimError, Simulator, Storey,
+};
+
+/// A scenario as written in its file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Short name used in reports; defaults to the file stem.
+    #[serde(default)]
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    pub structure: StructureSpec,
+    #[serde(default = "no_damping")]
+    pub damping: DampingSpec,
+    #[serde(default)]
+    pub dashpots: Vec<Dashpot>,
+    pub campaign: CampaignSettings,
+    #[serde(default)]
+    pub identification: IdentificationSettings,
+    #[serde(default)]
+    pub sweep: SweepSettings,
+}
+
+/// How the campaign is identified (defaults follow the acquisition).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IdentificationSettings {
+    /// `zoh` or `bandlimited`; default: `zoh` for held records, `bandlimited`
+    /// for analyzer records.
+    #[serde(default)]
+    pub intersample: Option<ident::Intersample>,
+    /// Model order (state dimension); default automatic.
+    #[serde(default)]
+    pub order: Option<usize>,
+    /// OKID observer order; default automatic.
+    #[serde(default)]
+    pub observer_order: Option<usize>,
+    /// Refine M, K and the damping matrix by maximum likelihood after MKR.
+    #[serde(default)]
+    pub refine: bool,
+    /// Physical parameters of the refinement and of the Cramér–Rao bound.
+    #[serde(default)]
+    pub parametrization: ParametrizationSetting,
+}
+
+/// Physical parametrization of the refinement, as written in scenario files
+/// and on the command line (`--parametrization`).
+/// Written `full` or `shear-frame` ([`std::str::FromStr`] and
+/// [`std::fmt::Display`] use the same words as serde).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ParametrizationSetting {
+    /// Symmetric M, K and damping (every upper-triangle entry).
+    #[default]
+    Full,
+    /// One mass per floor, one spring and one dashpot per storey, plus a
+    /// dashpot from every floor above the first to the ground (so that
+    /// Rayleigh damping is representable).
+    ShearFrame,
+}
+
+impl ParametrizationSetting {
+    /// Every setting.
+    pub const ALL: [ParametrizationSetting; 2] = [
+        ParametrizationSetting::Full,
+        ParametrizationSetting::ShearFrame,
+    ];
+
+    /// The word used in files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            ParametrizationSetting::Full => "full",
+            ParametrizationSetting::ShearFrame => "shear-frame",
+        }
+    }
+
+    /// The refinement's parametrization for `dofs` floors.
+    pub fn parametrization(self, dofs: usize) -> ident::refine::Parametrization {
+        use ident::refine::{Dashpot, Node, Parametrization};
+        match self {
+            ParametrizationSetting::Full => Parametrization::Full,
+            ParametrizationSetting::ShearFrame => Parametrization::ShearFrame {
+                dashpots: (1..dofs)
+                    .map(|i| Dashpot::between(Node::Ground, Node::Dof(i)))
+                    .collect(),
+            },
+        }
+    }
+}
+
+impl std::fmt::Display for ParametrizationSetting {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for ParametrizationSetting {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        ParametrizationSetting::ALL
+            .into_iter()
+            .find(|p| p.name() == s.trim())
+            .ok_or_else(|| format!("expected `full` or `shear-frame`, got `{s}`"))
+    }
+}
+
+/// A Monte Carlo sweep over noise levels (and optionally a second axis).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSettings {
+    /// Noise levels, fractions of each channel's RMS.
+    #[serde(default = "default_noise_levels")]
+    pub noise: Vec<f64>,
+    /// Trials (simulated campaigns) per noise level and axis value.
+    #[serde(default = "default_trials")]
+    pub trials: usize,
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Optional second axis.
+    #[serde(default)]
+    pub axis: Option<SweepAxis>,
+}
+
+fn default_noise_levels() -> Vec<f64> {
+    vec![0.0, 0.005, 0.01, 0.02, 0.05]
+}
+fn default_trials() -> usize {
+    20
+}
+fn default_seed() -> u64 {
+    1
+}
+
+impl Default for SweepSettings {
+    fn default() -> Self {
+        SweepSettings {
+            noise: default_noise_levels(),
+            trials: default_trials(),
+            seed: default_seed(),
+            axis: None,
+        }
+    }
+}
+
+/// A second sweep axis: one setting and the values it takes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepAxis {
+    pub setting: AxisSetting,
+    pub values: Vec<AxisValue>,
+}
+
+/// Settings a sweep can vary besides the noise level.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AxisSetting {
+    /// Hits per campaign.
+    Hits,
+    /// Hammer pulse duration, s.
+    PulseDurationS,
+    /// Intersample assumption of the identification (`zoh`, `bandlimited`).
+    Intersample,
+}
+
+/// A value of a sweep axis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum AxisValue {
+    Number(f64),
+    Text(String),
+}
+
+impl std::fmt::Display for AxisValue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            AxisValue::Number(x) => write!(f, "{x}"),
+            AxisValue::Text(t) => write!(f, "{t}"),
+        }
+    }
+}
+
+impl AxisSetting {
+    /// The name used in files and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            AxisSetting::Hits => "hits",
+            AxisSetting::PulseDurationS => "pulse_duration_s",
+            AxisSetting::Intersample => "intersample",
+        }
+    }
+}
+
+fn no_damping() -> DampingSpec {
+    DampingSpec::None
+}
+
+/// The structure: mass and stiffness given directly, or a shear frame
+/// built from geometry.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum StructureSpec {
+    /// Mass (kg) and stiffness (N/m) matrices as arrays of rows.
+    Matrices {
+        mass: Vec<Vec<f64>>,
+        stiffness: Vec<Vec<f64>>,
+    },
+    /// Storeys (bottom up) and the floors they carry.
+    ShearFrame {
+        storeys: Vec<Storey>,
+        floors: Vec<Floor>,
+    },
+}
+
+impl StructureSpec {
+    /// Number of floors (DOFs) as written; [`Scenario::model`] checks it.
+    pub fn dofs(&self) -> usize {
+        match self {
+            StructureSpec::Matrices { mass, .. } => mass.len(),
+            StructureSpec::ShearFrame { floors, .. } => floors.len(),
+        }
+    }
+}
+
+/// Why a scenario cannot be used.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ScenarioError {
+    /// The file cannot be read.
+    #[error("{}: cannot read scenario: {message}", path.display())]
+    Io {
+        /// The scenario file.
+        path: PathBuf,
+        /// The operating system's message.
+        message: String,
+    },
+    /// Not valid TOML or not the schema (the message carries line and column).
+    #[error("{}: {}", path.display(), message.trim_end())]
+    Parse {
+        /// The scenario file.
+        path: PathBuf,
+        /// The TOML parser's message, with line and column.
+        message: String,
+    },
+    /// A field has an invalid value.
+    #[error("{}: {field}: {problem}", path.display())]
+    Invalid {
+        /// The scenario file.
+        path: PathBuf,
+        /// The field, as a TOML path (`campaign.hammer.floor`).
+        field: String,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// No scenario of that name is compiled in.
+    #[error("no built-in scenario named '{name}'; built-in: {}", BUILTIN.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "))]
+    UnknownBuiltin {
+        /// The name asked for.
+        name: String,
+    },
+}
+
+/// A scenario with the file it came from, checked and ready to simulate.
+#[derive(Debug, Clone)]
+pub struct LoadedScenario {
+    pub path: PathBuf,
+    pub scenario: Scenario,
+    pub model: Model,
+}
+
+impl Scenario {
+    /// Parses TOML text; `path` is used in messages and for the default name.
+    pub fn parse(text: &str, path: &Path) -> Result<Scenario, ScenarioError> {
+        let mut s: Scenario = toml::from_str(text).map_err(|e| ScenarioError::Parse {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        if s.name.is_empty() {
+            s.name = path
+                .file_stem()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+        }
+        Ok(s)
+    }
+
+    /// Builds and checks the structural model (M, K, damping).
+    pub fn model(&self) -> Result<Model, SimError> {
+        let (mass, stiffness) = match &self.structure {
+            StructureSpec::Matrices { mass, stiffness } => {
+                let n = mass.len();
+                if n == 0 {
+                    return Err(SimError::Invalid {
+                        field: "structure.mass".into(),
+                        problem: "must have at least one row".into(),
+                    });
+                }
+                (
+                    sim::matrix_from_rows("structure.mass", mass, n)?,
+                    sim::matrix_from_rows("structure.stiffness", stiffness, n)?,
+                )
+            }
+            StructureSpec::ShearFrame { storeys, floors } => {
+                let frame = ShearFrame {
+                    storeys: storeys.clone(),
+                    floors: floors.clone(),
+                };
+                frame.check().map_err(|e| prefix("structure.", e))?;
+                (frame.mass_matrix(), frame.stiffness_matrix())
+            }
+        };
+        let damping = sim::build_damping(&mass, &stiffness, &self.damping, &self.dashpots)?;
+        Model::new(mass, stiffness, damping).map_err(|e| match e {
+            SimError::NotPositiveDefinite { matrix, pivot } => SimError::Invalid {
+                field: structure_field(matrix),
+                problem: format!("not positive definite (Cholesky pivot {pivot} is not positive)"),
+            },
+            SimError::NotSymmetric {
+                matrix,
+                row,
+                col,
+                difference,
+            } => SimError::Invalid {
+                field: structure_field(matrix),
+                problem: format!("not symmetric: entry ({row},{col}) differs from ({col},{row}) by {difference:.3e}"),
+            },
+            other => other,
+        })
+    }
+
+    /// The simulator for this scenario's campaign.
+    pub fn simulator(&self, model: Model) -> Result<Simulator, SimError> {
+        Simulator::new(model, self.campaign.clone()).map_err(|e| prefix("campaign.", e))
+    }
+
+    /// The intersample assumption: as set, else from the acquisition.
+    pub fn intersample(&self) -> ident::Intersample {
+        match self.identification.intersample {
+            Some(s) => s,
+            None => match self.campaign.acquisition {
+                sim::Acquisition::Held => ident::Intersample::Zoh,
+                sim::Acquisition::Analyzer(_) => ident::Intersample::Bandlimited,
+            },
+        }
+    }
+
+    /// The identifier configured by the `[identification]` table, with the
+    /// hit floor's accelerometer as the collocated output.
+    pub fn identifier(&self) -> ident::Identifier {
+        let mut id = ident::Identifier::default()
+            .intersample(self.intersample())
+            .collocated(self.campaign.hammer.floor - 1, 0);
+        if let Some(n) = self.identification.order {
+            id = id.order(ident::ModelOrder::Fixed(n));
+        }
+        if let Some(p) = self.identification.observer_order {
+            id = id.observer_order(ident::ObserverOrder::Fixed(p));
+        }
+        id
+    }
+
+    /// The maximum-likelihood refiner (also used for the Cramér–Rao bound):
+    /// the scenario's parametrization, the hit floor as input, noise levels
+    /// estimated from the residuals.
+    pub fn refiner(&self) -> ident::refine::Refiner {
+        ident::refine::Refiner::default()
+            .parametrization(
+                self.identification
+                    .parametrization
+                    .parametrization(self.structure.dofs()),
+            )
+            .intersample(self.intersample())
+            .input_dofs(vec![self.campaign.hammer.floor - 1])
+    }
+
+    /// The intersample behaviour of the records themselves (held records are
+    /// ZOH, analyzer records band-limited), whatever the identification
+    /// assumes: what the Cramér–Rao bound is computed for.
+    pub fn acquisition_intersample(&self) -> ident::Intersample {
+        match self.campaign.acquisition {
+            sim::Acquisition::Held => ident::Intersample::Zoh,
+            sim::Acquisition::Analyzer(_) => ident::Intersample::Bandlimited,
+        }
+    }
+
+    /// Checks the `[identification]` and `[sweep]` tables.
+    pub fn check_study_settings(&self) -> Result<(), SimError> {
+        let bad = |field: &str, problem: String| SimError::Invalid {
+            field: field.into(),
+            problem,
+        };
+        if self.identification.order == Some(0) {
+            return Err(bad("identification.order", "must be at least 2".into()));
+        }
+        if self.identification.observer_order == Some(0) {
+            return Err(bad(
+                "identification.observer_order",
+                "must be at least 1".into(),
+            ));
+        }
+        self.identifier()
+            .check()
+            .map_err(|e| bad("identification", e.to_string()))?;
+        self.refiner()
+            .check()
+            .map_err(|e| bad("identification", e.to_string()))?;
+        let sw = &self.sweep;
+        if sw.noise.is_empty() {
+            return Err(bad("sweep.noise", "needs at least one noise level".into()));
+        }
+        for (i, &n) in sw.noise.iter().enumerate() {
+            if !(n.is_finite() && n >= 0.0) {
+                return Err(bad(
+                    &format!("sweep.noise[{i}]"),
+                    format!("must be a fraction >= 0, got {n}"),
+                ));
+            }
+            if sw.noise[..i].contains(&n) {
+                return Err(bad(
+                    &format!("sweep.noise[{i}]"),
+                    format!("noise level {n} appears twice"),
+                ));
+            }
+        }
+        if sw.trials == 0 {
+            return Err(bad("sweep.trials", "must be at least 1".into()));
+        }
+        if let Some(axis) = &sw.axis {
+            if axis.values.is_empty() {
+                return Err(bad("sweep.axis.values", "needs at least one value".into()));
+            }
+            for (i, v) in axis.values.iter().enumerate() {
+                let field = format!("sweep.axis.values[{i}]");
+                match (axis.setting, v) {
+                    (AxisSetting::Hits, AxisValue::Number(x)) if *x >= 1.0 && x.fract() == 0.0 => {}
+                    (AxisSetting::Hits, _) => {
+                        return Err(bad(
+                            &field,
+                            format!("hits must be a whole number >= 1, got {v}"),
+                        ));
+                    }
+                    (AxisSetting::PulseDurationS, AxisValue::Number(x))
+                        if x.is_finite() && *x > 0.0 => {}
+                    (AxisSetting::PulseDurationS, _) => {
+                        return Err(bad(
+                            &field,
+                            format!("a pulse duration must be a number of seconds > 0, got {v}"),
+                        ));
+                    }
+                    (AxisSetting::Intersample, AxisValue::Text(t))
+                        if ident::Intersample::ALL.iter().any(|i| i.name() == t) => {}
+                    (AxisSetting::Intersample, _) => {
+                        return Err(bad(
+                            &field,
+                            format!("intersample must be \"zoh\" or \"bandlimited\", got {v}"),
+                        ));
+                    }
+                }
+                if axis.values[..i].contains(v) {
+                    return Err(bad(&field, format!("value {v} appears twice")));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+fn structure_field(matrix: &str) -> String {
+    match matrix {
+        "damping" => "damping".into(),
+        m => format!("structure.{m}"),
+    }
+}
+
+fn prefix(p: &str, e: SimError) -> SimError {
+    match e {
+        SimError::Invalid { field, problem } => SimError::Invalid {
+            field: format!("{p}{field}"),
+            problem,
+        },
+        other => other,
+    }
+}
+
+/// The scenarios compiled into the binary, as (file name, contents): the
+/// default study's. The same files are in `scenarios/`.
+pub const BUILTIN: [(&str, &str); 3] = [
+    (
+        "paper-case1.toml",
+        include_str!("../../scenarios/paper-case1.toml"),
+    ),
+    (
+        "paper-case2.toml",
+        include_str!("../../scenarios/paper-case2.toml"),
+    ),
+    (
+        "frame-added-mass.toml",
+        include_str!("../../scenarios/frame-added-mass.toml"),
+    ),
+];
+
+impl LoadedScenario {
+    /// Reads, parses and checks a scenario file.
+    pub fn load(path: &Path) -> Result<LoadedScenario, ScenarioError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        Self::from_text(&text, path)
+    }
+
+    /// A scenario of [`BUILTIN`] by file name (`paper-case1.toml`); its
+    /// path in messages is `scenarios/<name>`.
+    pub fn builtin(name: &str) -> Result<LoadedScenario, ScenarioError> {
+        let (file, text) = BUILTIN
+            .iter()
+            .find(|(n, _)| *n == name)
+            .ok_or_else(|| ScenarioError::UnknownBuiltin { name: name.into() })?;
+        Self::from_text(text, &Path::new("scenarios").join(file))
+    }
+
+    /// Parses and checks scenario text: the model, the campaign (by building
+    /// its simulator) and the identification and sweep settings. `path` is
+    /// used in messages and for the default name.
+    pub fn from_text(text: &str, path: &Path) -> Result<LoadedScenario, ScenarioError> {
+        let scenario = Scenario::parse(text, path)?;
+        let invalid = |e: SimError| match e {
+            SimError::Invalid { field, problem } => ScenarioError::Invalid {
+                path: path.to_path_buf(),
+                field,
+                problem,
+            },
+            other => ScenarioError::Invalid {
+                path: path.to_path_buf(),
+                field: "structure".into(),
+                problem: other.to_string(),
+            },
+        };
+        let model = scenario.model().map_err(invalid)?;
+        // Build the simulator once to check the campaign settings.
+        scenario.simulator(model.clone()).map_err(invalid)?;
+        scenario.check_study_settings().map_err(invalid)?;
+        Ok(LoadedScenario {
+            path: path.to_path_buf(),
+            scenario,
+            model,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = r#"
+[structure]
+kind = "matrices"
+mass = [[1.0, 0.0], [0.0, 1.0]]
+stiffness = [[200.0, -100.0], [-100.0, 100.0]]
+
+[damping]
+kind = "rayleigh"
+alpha = 0.1
+beta = 1e-4
+
+[campaign]
+hits = 2
+[campaign.hammer]
+floor = 1
+duration_s = 0.003
+peak_n = 10.0
+"#;
+
+    fn load_text(text: &str) -> Result<LoadedScenario, ScenarioError> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("case.toml");
+        std::fs::write(&path, text).unwrap();
+        LoadedScenario::load(&path).map_err(|e| match e {
+            // Report relative to the file name only, for stable messages.
+            ScenarioError::Parse { message, .. } => ScenarioError::Parse {
+                path: "case.toml".into(),
+                message,
+            },
+            ScenarioError::Invalid { field, problem, .. } => ScenarioError::Invalid {
+                path: "case.toml".into(),
+                field,
+                problem,
+            },
+            other => other,
+        })
+    }
+
+    #[test]
+    fn minimal_scenario_loads_with_defaults() {
+        let s = load_text(MINIMAL).unwrap();
+        assert_eq!(s.scenario.name, "case");
+        assert_eq!(s.scenario.campaign.sampling.samples, 2048);
+        assert_eq!(s.model.dofs(), 2);
+    }
+
+    #[test]
+    fn errors_name_file_and_field() {
+        let bad = MINIMAL.replace("floor = 1", "floor = 3");
+        assert_eq!(
+            load_text(&bad).unwrap_err().to_string(),
+            "case.toml: campaign.hammer.floor: floor 3 does not exist; floors are numbered 1..=2"
+        );
+        let bad = MINIMAL.replace(
+            "[[200.0, -100.0], [-100.0, 100.0]]",
+            "[[200.0, -100.0], [-100.0]]",
+        );
+        assert_eq!(
+            load_text(&bad).unwrap_err().to_string(),
+            "case.toml: structure.stiffness[1]: has 1 entries, expected 2"
+        );
+        let bad = MINIMAL.replace(
+            "[[200.0, -100.0], [-100.0, 100.0]]",
+            "[[100.0, -200.0], [-200.0, 100.0]]",
+        );
+        assert_eq!(
+            load_text(&bad).unwrap_err().to_string(),
+            "case.toml: structure.stiffness: not positive definite (Cholesky pivot 1 is not positive)"
+        );
+        let bad = MINIMAL.replace("peak_n = 10.0", "peak_n = 10.0\npeak = 3");
+        let msg = load_text(&bad).unwrap_err().to_string();
+        assert!(
+            msg.contains("line 18") && msg.contains("unknown field `peak`"),
+            "{msg}"
+        );
+        let bad = MINIMAL.replace("alpha = 0.1", "alpha = -0.1");
+        assert_eq!(
+            load_text(&bad).unwrap_err().to_string(),
+            "case.toml: damping.alpha: must be a finite number >= 0, got -0.1"
+        );
+    }
+}

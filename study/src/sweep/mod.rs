@@ -1,0 +1,845 @@
+//! Monte Carlo sweeps: many simulated campaigns per noise level (and per
+//! value of an optional second axis), identified and scored, in parallel.
+//!
+//! Reproducibility: trial t at noise level x uses the seed
+//! `derive(derive(seed, bits(x)), t)`, independent of the axis value (so
+//! axis values are compared on the same random campaigns), of the thread
+//! count and of the shard split. Trials are kept in a fixed order (axis
+//! value, noise level, trial), and summaries are computed from the rows in
+//! that order, so one run, any thread count, and merged shards give
+//! byte-identical `trials.csv` and `summary.json`.
+
+pub mod stats;
+
+use std::collections::BTreeMap;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::Path;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use sim::{Simulator, derive_seed};
+
+use crate::error::StudyError;
+use crate::experiment::{Bound, TrueModel, cramer_rao_bound, noise_at, run_trial};
+use crate::fsutil::{read_json, write_json};
+use crate::scenario::{AxisSetting, AxisValue, Scenario, SweepAxis};
+use crate::score::{MatrixEstimate, ScoreKey, score};
+use stats::Stats;
+
+/// What a sweep runs: the scenario (overrides applied), noise levels,
+/// trials, seed and the optional second axis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Plan {
+    /// The scenario, command-line overrides applied.
+    pub scenario: Scenario,
+    /// Noise levels, fractions of each channel's RMS.
+    pub noise_levels: Vec<f64>,
+    /// Trials per noise level and axis value.
+    pub trials: usize,
+    /// Base seed.
+    pub seed: u64,
+    /// The optional second axis.
+    pub axis: Option<SweepAxis>,
+}
+
+/// Position of a trial in the plan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub struct TrialKey {
+    /// Index of the axis value (0 without an axis).
+    pub axis: usize,
+    /// Index of the noise level.
+    pub noise: usize,
+    /// Trial number within the cell.
+    pub trial: usize,
+}
+
+/// A part `index` of `count` of a sweep (1-based index, as in `--shard 2/4`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Shard {
+    /// 1-based index of this part.
+    pub index: usize,
+    /// Number of parts.
+    pub count: usize,
+}
+
+impl Shard {
+    /// Whether the trial at `position` in the plan's canonical order belongs
+    /// to this shard (trials are dealt round-robin).
+    pub fn contains(self, position: usize) -> bool {
+        position % self.count == self.index - 1
+    }
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+
+    /// Parses `K/N` with `1 <= K <= N`.
+    fn from_str(s: &str) -> Result<Shard, String> {
+        let (k, n) = s
+            .split_once('/')
+            .ok_or_else(|| format!("expected K/N (e.g. 2/4), got '{s}'"))?;
+        let k: usize = k
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{k}' is not a shard number"))?;
+        let n: usize = n
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{n}' is not a shard count"))?;
+        if n == 0 || k == 0 || k > n {
+            return Err(format!("need 1 <= K <= N, got {k}/{n}"));
+        }
+        Ok(Shard { index: k, count: n })
+    }
+}
+
+/// Outcome of one trial.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// The identification succeeded.
+    Ok {
+        /// Scores aligned with the sweep's score keys.
+        scores: Vec<f64>,
+        /// Why the refinement failed (its scores are then NaN), as
+        /// (reason, message).
+        note: Option<(String, String)>,
+    },
+    /// The identification failed.
+    Failed {
+        /// A short, stable category.
+        reason: String,
+        /// The full message.
+        message: String,
+    },
+}
+
+/// One row of `trials.csv`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrialRow {
+    /// Where the trial is in the plan.
+    pub key: TrialKey,
+    /// Its seed.
+    pub seed: u64,
+    /// What happened.
+    pub outcome: Outcome,
+}
+
+impl Plan {
+    /// Values of the second axis (one `None` if there is no axis).
+    pub fn axis_values(&self) -> Vec<Option<AxisValue>> {
+        match &self.axis {
+            Some(a) => a.values.iter().cloned().map(Some).collect(),
+            None => vec![None],
+        }
+    }
+
+    /// Every trial in canonical order.
+    pub fn keys(&self) -> Vec<TrialKey> {
+        let mut keys = Vec::new();
+        for axis in 0..self.axis_values().len() {
+            for noise in 0..self.noise_levels.len() {
+                for trial in 0..self.trials {
+                    keys.push(TrialKey { axis, noise, trial });
+                }
+            }
+        }
+        keys
+    }
+
+    /// Seed of a trial.
+    pub fn trial_seed(&self, key: TrialKey) -> u64 {
+        derive_seed(
+            derive_seed(self.seed, self.noise_levels[key.noise].to_bits()),
+            key.trial as u64,
+        )
+    }
+
+    /// The scenario as used for an axis value.
+    pub fn scenario_at(&self, axis: usize) -> Scenario {
+        let mut s = self.scenario.clone();
+        if let (Some(a), Some(v)) = (&self.axis, &self.axis_values()[axis]) {
+            match (a.setting, v) {
+                (AxisSetting::Hits, AxisValue::Number(x)) => s.campaign.hits = *x as usize,
+                (AxisSetting::PulseDurationS, AxisValue::Number(x)) => {
+                    s.campaign.hammer.duration_s = *x
+                }
+                (AxisSetting::Intersample, AxisValue::Text(t)) => {
+                    s.identification.intersample =
+                        Some(t.parse().expect("axis values are checked when loaded"))
+                }
+                _ => unreachable!("axis values are checked when the scenario is loaded"),
+            }
+        }
+        s
+    }
+
+    /// Label of an axis value ("" without an axis).
+    pub fn axis_label(&self, axis: usize) -> String {
+        self.axis_values()[axis]
+            .as_ref()
+            .map(ToString::to_string)
+            .unwrap_or_default()
+    }
+
+    /// The score keys of every trial.
+    pub fn score_keys(&self) -> Vec<ScoreKey> {
+        ScoreKey::all(
+            self.scenario.structure.dofs(),
+            self.scenario.identification.refine,
+        )
+    }
+
+    /// The keys of the trials of `shard` (all if `None`), in canonical order.
+    pub fn shard_keys(&self, shard: Option<Shard>) -> Vec<TrialKey> {
+        self.keys()
+            .into_iter()
+            .enumerate()
+            .filter(|&(i, _)| shard.is_none_or(|s| s.contains(i)))
+            .map(|(_, k)| k)
+            .collect()
+    }
+}
+
+/// A short, stable failure category for counting (the full message is
+/// kept beside it).
+pub fn failure_reason(e: &ident::Error) -> String {
+    use ident::Error as E;
+    match e {
+        E::InvalidParams { .. } => "invalid parameters",
+        E::Data(_) => "unusable data",
+        E::Okid(_) => "OKID failed",
+        E::Era(_) => "ERA failed",
+        E::Modal(_) => "modal analysis failed",
+        E::Mkr(m) => match m {
+            ident::MkrError::NotPositiveDefinite { .. } => "MKR: not positive definite",
+            ident::MkrError::InconsistentPolarity { .. } => "MKR: inconsistent polarity",
+            _ => "MKR failed",
+        },
+        E::Rayleigh(_) => "Rayleigh fit failed",
+        E::OutputsFewerThanDofs { .. } => "fewer outputs than DOFs",
+        E::OrderNotIdentifiable { .. } => "order not identifiable",
+        E::NonFiniteResult { .. } => "non-finite result",
+    }
+    .to_string()
+}
+
+/// A short, stable category of a refinement failure.
+pub fn refine_failure_reason(e: &ident::RefineError) -> String {
+    use ident::RefineError as E;
+    let what = match e {
+        E::InvalidParams { .. } => "invalid parameters",
+        E::Data(_) => "unusable data",
+        E::NotPositiveDefinite { .. } => "not positive definite",
+        E::NonFiniteModel => "non-finite model",
+        E::SingularModel => "singular model",
+        E::NotRepresentable { .. } => "not representable",
+        E::TooFewBins { .. } => "too few bins",
+        E::NotIdentifiable { .. } => "not identifiable",
+        E::ModalAnalysis => "modal analysis failed",
+    };
+    format!("refinement: {what}")
+}
+
+/// Runs the trials of `shard` (all if `None`) on `threads` threads;
+/// `progress` is called once per finished trial (from any worker thread).
+pub fn run(
+    plan: &Plan,
+    truth: &TrueModel,
+    shard: Option<Shard>,
+    threads: usize,
+    progress: &(dyn Fn() + Sync),
+) -> Result<Vec<TrialRow>, StudyError> {
+    let axis_count = plan.axis_values().len();
+    let simulators: Vec<Simulator> = (0..axis_count)
+        .map(|a| {
+            plan.scenario_at(a)
+                .simulator(truth.model.clone())
+                .map_err(|error| StudyError::Simulation {
+                    context: format!("sweep axis value {}", plan.axis_label(a)),
+                    error,
+                })
+        })
+        .collect::<Result<_, _>>()?;
+    let identifiers: Vec<ident::Identifier> = (0..axis_count)
+        .map(|a| plan.scenario_at(a).identifier())
+        .collect();
+    let refiners: Vec<Option<ident::refine::Refiner>> = (0..axis_count)
+        .map(|a| {
+            let s = plan.scenario_at(a);
+            s.identification.refine.then(|| s.refiner())
+        })
+        .collect();
+    let keys = plan.shard_keys(shard);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    let rows = pool.install(|| {
+        keys.par_iter()
+            .map(|&key| {
+                let seed = plan.trial_seed(key);
+                let noise = noise_at(&plan.scenario.campaign.noise, plan.noise_levels[key.noise]);
+                let outcome = catch_unwind(AssertUnwindSafe(|| {
+                    let trial = run_trial(
+                        &simulators[key.axis],
+                        &identifiers[key.axis],
+                        refiners[key.axis].as_ref(),
+                        &noise,
+                        seed,
+                    );
+                    match trial.identification {
+                        Ok(id) => Outcome::Ok {
+                            scores: score(&id, trial.refinement.as_ref(), truth),
+                            note: match &trial.refinement {
+                                Some(Err(e)) => Some((refine_failure_reason(e), e.to_string())),
+                                _ => None,
+                            },
+                        },
+                        Err(e) => Outcome::Failed {
+                            reason: failure_reason(&e),
+                            message: e.to_string(),
+                        },
+                    }
+                }))
+                .unwrap_or_else(|panic| Outcome::Failed {
+                    reason: "panic".into(),
+                    message: panic
+                        .downcast_ref::<String>()
+                        .cloned()
+                        .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                        .unwrap_or_default(),
+                });
+                progress();
+                TrialRow { key, seed, outcome }
+            })
+            .collect::<Vec<_>>()
+    });
+    Ok(rows)
+}
+
+const FIXED_COLUMNS: [&str; 7] = [
+    "axis", "noise", "trial", "seed", "status", "reason", "message",
+];
+
+/// Writes `trials.csv`: one row per trial in canonical order; scores in
+/// shortest round-trip form (empty for failed trials).
+pub fn write_trials(
+    path: &Path,
+    plan: &Plan,
+    keys: &[ScoreKey],
+    rows: &[TrialRow],
+) -> Result<(), StudyError> {
+    let csv_error = |e: csv::Error| StudyError::bad_file(path, None, format!("cannot format: {e}"));
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let header: Vec<String> = FIXED_COLUMNS
+        .iter()
+        .map(ToString::to_string)
+        .chain(keys.iter().map(ToString::to_string))
+        .collect();
+    w.write_record(&header).map_err(csv_error)?;
+    for r in rows {
+        let mut rec = vec![
+            plan.axis_label(r.key.axis),
+            plan.noise_levels[r.key.noise].to_string(),
+            r.key.trial.to_string(),
+            r.seed.to_string(),
+        ];
+        match &r.outcome {
+            Outcome::Ok { scores, note } => {
+                let (reason, message) = note.clone().unwrap_or_default();
+                rec.extend(["ok".to_string(), reason, message]);
+                rec.extend(scores.iter().map(|x| x.to_string()));
+            }
+            Outcome::Failed { reason, message } => {
+                rec.extend(["failed".to_string(), reason.clone(), message.clone()]);
+                rec.extend(keys.iter().map(|_| String::new()));
+            }
+        }
+        w.write_record(&rec).map_err(csv_error)?;
+    }
+    let bytes = w
+        .into_inner()
+        .map_err(|e| StudyError::bad_file(path, None, format!("cannot format: {e}")))?;
+    records::write_atomically(path, &bytes)?;
+    Ok(())
+}
+
+/// Reads a `trials.csv` written for `plan`; checks header and keys.
+pub fn read_trials(
+    path: &Path,
+    plan: &Plan,
+    keys: &[ScoreKey],
+) -> Result<Vec<TrialRow>, StudyError> {
+    let bytes = std::fs::read(path).map_err(|e| StudyError::io(path, "read", e))?;
+    let mut r = csv::Reader::from_reader(bytes.as_slice());
+    let expected: Vec<String> = FIXED_COLUMNS
+        .iter()
+        .map(ToString::to_string)
+        .chain(keys.iter().map(ToString::to_string))
+        .collect();
+    let header = r
+        .headers()
+        .map_err(|e| StudyError::bad_file(path, Some(1), format!("no header: {e}")))?
+        .clone();
+    if header.iter().collect::<Vec<_>>() != expected {
+        return Err(StudyError::bad_file(
+            path,
+            Some(1),
+            "the columns do not match this sweep's scores",
+        ));
+    }
+    let labels: Vec<String> = (0..plan.axis_values().len())
+        .map(|a| plan.axis_label(a))
+        .collect();
+    let mut rows = Vec::new();
+    for (i, rec) in r.records().enumerate() {
+        let line = i + 2;
+        let rec = rec.map_err(|e| StudyError::bad_file(path, Some(line), e.to_string()))?;
+        let field = |k: usize| rec.get(k).unwrap_or("");
+        let bad = |what: &str| StudyError::bad_file(path, Some(line), what);
+        let axis = labels
+            .iter()
+            .position(|l| l == field(0))
+            .ok_or_else(|| bad("unknown axis value"))?;
+        let noise_value: f64 = field(1).parse().map_err(|_| bad("noise is not a number"))?;
+        let noise = plan
+            .noise_levels
+            .iter()
+            .position(|&x| x.to_bits() == noise_value.to_bits())
+            .ok_or_else(|| bad("noise level not in the sweep"))?;
+        let trial: usize = field(2).parse().map_err(|_| bad("trial is not a number"))?;
+        if trial >= plan.trials {
+            return Err(bad("trial index beyond the sweep's trials"));
+        }
+        let seed: u64 = field(3).parse().map_err(|_| bad("seed is not a number"))?;
+        let key = TrialKey { axis, noise, trial };
+        if seed != plan.trial_seed(key) {
+            return Err(bad("seed does not match the sweep's seed for this trial"));
+        }
+        let outcome = match field(4) {
+            "ok" => Outcome::Ok {
+                scores: (0..keys.len())
+                    .map(|k| {
+                        field(FIXED_COLUMNS.len() + k)
+                            .parse::<f64>()
+                            .map_err(|_| bad("score is not a number"))
+                    })
+                    .collect::<Result<_, _>>()?,
+                note: (!field(5).is_empty()).then(|| (field(5).to_string(), field(6).to_string())),
+            },
+            "failed" => Outcome::Failed {
+                reason: field(5).to_string(),
+                message: field(6).to_string(),
+            },
+            _ => return Err(bad("status must be ok or failed")),
+        };
+        rows.push(TrialRow { key, seed, outcome });
+    }
+    Ok(rows)
+}
+
+/// Summary of one cell (axis value, noise level).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LevelSummary {
+    /// The axis value (none without an axis).
+    pub axis_value: Option<AxisValue>,
+    /// The noise level.
+    pub noise: f64,
+    /// Trials run.
+    pub trials: usize,
+    /// Trials whose identification failed.
+    pub failures: usize,
+    /// `failures / trials`.
+    pub failure_rate: f64,
+    /// Failures counted by reason.
+    pub failure_reasons: BTreeMap<String, usize>,
+    /// Trials whose identification succeeded but whose refinement failed.
+    pub refine_failures: BTreeMap<String, usize>,
+    /// Statistics of every score over the successful trials.
+    pub scores: BTreeMap<ScoreKey, Stats>,
+    /// The Cramér–Rao bound at this level (none at zero noise, or if it
+    /// could not be computed).
+    pub bound: Option<Bound>,
+    /// Per score with a bound: bound / RMS error over the successful trials
+    /// (1 = efficient).
+    pub efficiency: BTreeMap<ScoreKey, f64>,
+    /// Refined M, K, damping: mean standard error reported by a single
+    /// refinement over the RMS error across trials (1 = honest error bars).
+    pub standard_error_ratio: BTreeMap<String, f64>,
+}
+
+/// Contents of `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    /// Version of frameid that wrote it.
+    pub frameid_version: String,
+    /// What was run.
+    pub plan: Plan,
+    /// The scores, in column order.
+    pub score_names: Vec<ScoreKey>,
+    /// One summary per (axis value, noise level).
+    pub levels: Vec<LevelSummary>,
+}
+
+/// Stream tag of the campaign whose (noise-free) pulses the bound is
+/// computed for; the representative campaign of the report uses the same.
+pub const BOUND_TAG: u64 = 0x5245_5052;
+
+/// The Cramér–Rao bound of every cell (axis value, noise level): for the
+/// pulses of the campaign drawn with the sweep's seed and [`BOUND_TAG`],
+/// records as acquired, and the scenario's parametrization. Deterministic,
+/// so one run and merged shards agree.
+pub fn bounds(plan: &Plan, truth: &TrueModel) -> Vec<Vec<Option<Bound>>> {
+    let seed = derive_seed(plan.seed, BOUND_TAG);
+    (0..plan.axis_values().len())
+        .map(|a| {
+            let s = plan.scenario_at(a);
+            let simulator = s.simulator(truth.model.clone()).ok();
+            let refiner = s.refiner();
+            plan.noise_levels
+                .iter()
+                .map(|&level| {
+                    let noise = noise_at(&s.campaign.noise, level);
+                    if noise.sigma(1.0, true) == 0.0 && noise.sigma(1.0, false) == 0.0 {
+                        return None;
+                    }
+                    let simulator = simulator.as_ref()?;
+                    cramer_rao_bound(
+                        simulator,
+                        &refiner,
+                        s.acquisition_intersample(),
+                        truth,
+                        &noise,
+                        seed,
+                    )
+                    .ok()
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Summarizes rows (all trials of the plan, canonical order).
+pub fn summarize(plan: &Plan, truth: &TrueModel, keys: &[ScoreKey], rows: &[TrialRow]) -> Summary {
+    let bounds = bounds(plan, truth);
+    let mut levels = Vec::new();
+    for (a, axis_value) in plan.axis_values().into_iter().enumerate() {
+        for (ni, &noise) in plan.noise_levels.iter().enumerate() {
+            let cell: Vec<&TrialRow> = rows
+                .iter()
+                .filter(|r| r.key.axis == a && r.key.noise == ni)
+                .collect();
+            let mut reasons = BTreeMap::new();
+            let mut refine_reasons = BTreeMap::new();
+            let mut columns: Vec<Vec<f64>> = vec![Vec::new(); keys.len()];
+            for r in &cell {
+                match &r.outcome {
+                    Outcome::Ok { scores, note } => {
+                        for (c, x) in columns.iter_mut().zip(scores) {
+                            c.push(*x);
+                        }
+                        if let Some((reason, _)) = note {
+                            *refine_reasons.entry(reason.clone()).or_insert(0) += 1;
+                        }
+                    }
+                    Outcome::Failed { reason, .. } => {
+                        *reasons.entry(reason.clone()).or_insert(0) += 1
+                    }
+                }
+            }
+            let failures: usize = reasons.values().sum();
+            let column = |key: ScoreKey| keys.iter().position(|&k| k == key).map(|i| &columns[i]);
+            let rms = |v: &[f64]| {
+                let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+                (!finite.is_empty()).then(|| {
+                    (finite.iter().map(|x| x * x).sum::<f64>() / finite.len() as f64).sqrt()
+                })
+            };
+            let bound = bounds[a][ni].clone();
+            let efficiency = match &bound {
+                Some(b) => keys
+                    .iter()
+                    .filter_map(|&k| {
+                        let (bound, rms) = (b.for_score(k)?, rms(column(k)?)?);
+                        (rms > 0.0).then_some((k, bound / rms))
+                    })
+                    .collect(),
+                None => BTreeMap::new(),
+            };
+            // Meaningless without noise (errors at round-off level).
+            let standard_error_ratio = MatrixEstimate::REFINED
+                .iter()
+                .filter(|_| bound.is_some())
+                .filter_map(|&m| {
+                    let se = column(ScoreKey::StandardError(m))?;
+                    let err = rms(column(ScoreKey::Matrix(m))?)?;
+                    let mean_se = Stats::of(se).mean?;
+                    let name = m.name().trim_end_matches("_refined").to_string();
+                    (err > 0.0).then_some((name, mean_se / err))
+                })
+                .collect();
+            levels.push(LevelSummary {
+                axis_value: axis_value.clone(),
+                noise,
+                trials: cell.len(),
+                failures,
+                failure_rate: if cell.is_empty() {
+                    0.0
+                } else {
+                    failures as f64 / cell.len() as f64
+                },
+                failure_reasons: reasons,
+                refine_failures: refine_reasons,
+                scores: keys
+                    .iter()
+                    .copied()
+                    .zip(columns.iter().map(|c| Stats::of(c)))
+                    .collect(),
+                bound,
+                efficiency,
+                standard_error_ratio,
+            });
+        }
+    }
+    Summary {
+        frameid_version: env!("CARGO_PKG_VERSION").into(),
+        plan: plan.clone(),
+        score_names: keys.to_vec(),
+        levels,
+    }
+}
+
+/// `sweep.json`: what a directory holds (the plan and which shard).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// Version of frameid that wrote it.
+    pub frameid_version: String,
+    /// The scenario file as given.
+    pub scenario_path: String,
+    /// What was run.
+    pub plan: Plan,
+    /// Which part (none for a whole sweep).
+    pub shard: Option<Shard>,
+}
+
+/// Writes a sweep directory: `trials.csv`, `summary.json` (complete runs
+/// only: pass their summary) and `sweep.json`.
+pub fn write_dir(
+    dir: &Path,
+    manifest: &Manifest,
+    keys: &[ScoreKey],
+    rows: &[TrialRow],
+    summary: Option<&Summary>,
+) -> Result<(), StudyError> {
+    std::fs::create_dir_all(dir).map_err(|e| StudyError::io(dir, "create directory", e))?;
+    write_trials(&dir.join("trials.csv"), &manifest.plan, keys, rows)?;
+    if let Some(summary) = summary {
+        write_json(&dir.join("summary.json"), summary)?;
+    } else {
+        // A shard's summary would be partial: remove a stale one.
+        let stale = dir.join("summary.json");
+        if stale.exists() {
+            std::fs::remove_file(&stale).map_err(|e| StudyError::io(&stale, "remove", e))?;
+        }
+    }
+    write_json(&dir.join("sweep.json"), manifest)
+}
+
+/// Reads `sweep.json` of a directory.
+pub fn read_manifest(dir: &Path) -> Result<Manifest, StudyError> {
+    let path = dir.join("sweep.json");
+    if !path.exists() {
+        return Err(StudyError::bad_file(
+            &path,
+            None,
+            "missing: not a sweep directory",
+        ));
+    }
+    read_json(&path, "a sweep manifest")
+}
+
+/// Joins shard directories into what one run gives.
+pub fn merge(dirs: &[&Path], out: &Path) -> Result<Summary, StudyError> {
+    let merge_error = |problem: String| StudyError::Merge { problem };
+    if dirs.is_empty() {
+        return Err(merge_error("merge: no directories given".into()));
+    }
+    let manifests: Vec<Manifest> = dirs
+        .iter()
+        .map(|d| read_manifest(d))
+        .collect::<Result<_, _>>()?;
+    let first = &manifests[0];
+    for (m, d) in manifests.iter().zip(dirs).skip(1) {
+        if m.plan != first.plan {
+            return Err(merge_error(format!(
+                "{}: a different sweep than {} (scenario, noise levels, trials, seed or axis differ)",
+                d.display(),
+                dirs[0].display()
+            )));
+        }
+    }
+    let truth = plan_truth(&first.plan)?;
+    let keys = first.plan.score_keys();
+    let mut rows: BTreeMap<TrialKey, TrialRow> = BTreeMap::new();
+    for d in dirs {
+        for r in read_trials(&d.join("trials.csv"), &first.plan, &keys)? {
+            if rows.insert(r.key, r.clone()).is_some() {
+                return Err(merge_error(format!(
+                    "{}: trial {} at noise {} appears in more than one directory",
+                    d.display(),
+                    r.key.trial,
+                    first.plan.noise_levels[r.key.noise]
+                )));
+            }
+        }
+    }
+    let expected = first.plan.keys();
+    if let Some(missing) = expected.iter().find(|k| !rows.contains_key(k)) {
+        return Err(merge_error(format!(
+            "merge: trial {} at noise {}{} is missing: are all shards given?",
+            missing.trial,
+            first.plan.noise_levels[missing.noise],
+            match first.plan.axis_label(missing.axis).as_str() {
+                "" => String::new(),
+                l => format!(", axis value {l}"),
+            }
+        )));
+    }
+    let rows: Vec<TrialRow> = rows.into_values().collect();
+    let manifest = Manifest {
+        shard: None,
+        ..first.clone()
+    };
+    let summary = summarize(&manifest.plan, &truth, &keys, &rows);
+    write_dir(out, &manifest, &keys, &rows, Some(&summary))?;
+    Ok(summary)
+}
+
+/// The true model of a plan's scenario.
+pub fn plan_truth(plan: &Plan) -> Result<TrueModel, StudyError> {
+    let context = || format!("scenario {}", plan.scenario.name);
+    let model = plan
+        .scenario
+        .model()
+        .map_err(|error| StudyError::Simulation {
+            context: context(),
+            error,
+        })?;
+    TrueModel::new(model).map_err(|error| StudyError::Simulation {
+        context: context(),
+        error,
+    })
+}
+
+impl Plan {
+    /// The plan of a scenario's `[sweep]` table with the given overrides
+    /// (noise levels, trials, seed); checks the result.
+    pub fn new(
+        loaded: &crate::scenario::LoadedScenario,
+        noise: Option<&[f64]>,
+        trials: Option<usize>,
+        seed: Option<u64>,
+    ) -> Result<Plan, StudyError> {
+        let mut scenario = loaded.scenario.clone();
+        if let Some(n) = noise {
+            scenario.sweep.noise = n.to_vec();
+        }
+        if let Some(t) = trials {
+            scenario.sweep.trials = t;
+        }
+        if let Some(s) = seed {
+            scenario.sweep.seed = s;
+        }
+        scenario.check_study_settings().map_err(|e| match e {
+            sim::SimError::Invalid { field, problem } => {
+                StudyError::Scenario(crate::scenario::ScenarioError::Invalid {
+                    path: loaded.path.clone(),
+                    field,
+                    problem,
+                })
+            }
+            error => StudyError::Simulation {
+                context: loaded.path.display().to_string(),
+                error,
+            },
+        })?;
+        Ok(Plan {
+            noise_levels: scenario.sweep.noise.clone(),
+            trials: scenario.sweep.trials,
+            seed: scenario.sweep.seed,
+            axis: scenario.sweep.axis.clone(),
+            scenario,
+        })
+    }
+}
+
+/// What [`execute`] did.
+#[derive(Debug, Clone)]
+pub struct Execution {
+    /// The summary (none for a shard).
+    pub summary: Option<Summary>,
+    /// Trials run.
+    pub trials: usize,
+    /// Things the user should know (e.g. no representative campaign).
+    pub warnings: Vec<String>,
+}
+
+/// Runs a whole sweep (or one shard) and writes its directory: trials,
+/// manifest, and for a whole sweep the summary and the representative
+/// campaign. `scenario_path` is recorded in the manifest.
+pub fn execute(
+    scenario_path: &Path,
+    plan: &Plan,
+    out: &Path,
+    shard: Option<Shard>,
+    threads: usize,
+    progress: &(dyn Fn() + Sync),
+) -> Result<Execution, StudyError> {
+    let truth = plan_truth(plan)?;
+    let keys = plan.score_keys();
+    let rows = run(plan, &truth, shard, threads, progress)?;
+    let manifest = Manifest {
+        frameid_version: env!("CARGO_PKG_VERSION").into(),
+        scenario_path: scenario_path.display().to_string(),
+        plan: plan.clone(),
+        shard,
+    };
+    if shard.is_some() {
+        write_dir(out, &manifest, &keys, &rows, None)?;
+        return Ok(Execution {
+            summary: None,
+            trials: rows.len(),
+            warnings: Vec::new(),
+        });
+    }
+    let summary = summarize(plan, &truth, &keys, &rows);
+    write_dir(out, &manifest, &keys, &rows, Some(&summary))?;
+    let warnings = write_representative(&plan.scenario, &truth, plan.seed, out)?;
+    Ok(Execution {
+        summary: Some(summary),
+        trials: rows.len(),
+        warnings,
+    })
+}
+
+/// Writes `representative.json` (the report's example campaign). If its
+/// identification fails (the sweep counts such failures), the report goes
+/// without it: a warning is returned, and no stale file is left.
+pub fn write_representative(
+    scenario: &Scenario,
+    truth: &TrueModel,
+    seed: u64,
+    out: &Path,
+) -> Result<Vec<String>, StudyError> {
+    let path = out.join("representative.json");
+    match crate::representative::representative(scenario, truth, seed) {
+        Ok(rep) => write_json(&path, &rep).map(|()| Vec::new()),
+        Err(e) => {
+            if path.exists() {
+                std::fs::remove_file(&path).map_err(|err| StudyError::io(&path, "remove", err))?;
+            }
+            Ok(vec![format!(
+                "no representative campaign in the report: {e}"
+            )])
+        }
+    }
+}

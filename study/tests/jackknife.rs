@@ -1,0 +1,143 @@
+//! The jackknife error bars against the real spread: 20 seeded campaigns
+//! of the paper's case 1 (10 hits, 1 % noise), each identified jointly;
+//! the spread of their M and K must match the standard errors the
+//! jackknife reports for a single campaign. Plus determinism across thread
+//! counts.
+
+use std::path::Path;
+use std::time::Instant;
+
+use ident::jackknife::MIN_HITS;
+use ident::{Identification, Identifier};
+use ident::{Jackknife, UncertaintyError, jackknife};
+use rayon::prelude::*;
+use study::LoadedScenario;
+
+fn case1() -> LoadedScenario {
+    LoadedScenario::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/paper-case1.toml"),
+    )
+    .unwrap()
+}
+
+/// Joint identification and jackknife of one seeded campaign.
+fn identify(sim: &sim::Simulator, seed: u64) -> (Identification, Jackknife) {
+    let c = sim.simulate(seed);
+    let camp = c.to_ident();
+    let id = Identifier::default();
+    let joint = id.identify(&camp.records, c.dt_s).unwrap();
+    let u = jackknife(&id, &camp, &joint).unwrap();
+    (joint, u)
+}
+
+#[test]
+fn jackknife_standard_errors_match_the_spread_over_campaigns() {
+    const CAMPAIGNS: u64 = 20;
+    let s = case1();
+    let sim = s.scenario.simulator(s.model.clone()).unwrap();
+    let t = Instant::now();
+    let runs: Vec<(Identification, Jackknife)> =
+        (1..=CAMPAIGNS).map(|seed| identify(&sim, seed)).collect();
+    let elapsed = t.elapsed();
+    for (_, u) in &runs {
+        assert_eq!(u.method, "jackknife");
+        assert_eq!((u.hits, u.resamples), (10, 10));
+        assert!(u.failed.is_empty(), "{:?}", u.failed);
+    }
+    let n = runs.len() as f64;
+    let spread = |get: &dyn Fn(&Identification) -> f64| {
+        let v: Vec<f64> = runs.iter().map(|(j, _)| get(j)).collect();
+        let mean = v.iter().sum::<f64>() / n;
+        (v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0)).sqrt()
+    };
+    let rms = |get: &dyn Fn(&Jackknife) -> f64| {
+        (runs.iter().map(|(_, u)| get(u).powi(2)).sum::<f64>() / n).sqrt()
+    };
+    eprintln!("{CAMPAIGNS} campaigns of 10 hits (joint fit + 10 resamples each) in {elapsed:.2?}");
+    eprintln!("quantity      spread of joint   rms jackknife std   ratio");
+    let mut worst: f64 = 1.0;
+    let mut check = |name: String, sd: f64, js: f64, tolerance: f64| {
+        let ratio = js / sd;
+        eprintln!("{name:<12} {sd:>16.4e} {js:>19.4e} {ratio:>7.2}");
+        assert!(
+            (1.0 / tolerance..tolerance).contains(&ratio),
+            "{name}: jackknife {js:e} vs spread {sd:e}"
+        );
+        worst = worst.max(ratio.max(1.0 / ratio));
+    };
+    for (i, j) in [(0, 0), (0, 1), (1, 1)] {
+        check(
+            format!("M[{}{}]", i + 1, j + 1),
+            spread(&|r| r.mass[(i, j)]),
+            rms(&|u| u.mass.std[i][j]),
+            1.5,
+        );
+        check(
+            format!("K[{}{}]", i + 1, j + 1),
+            spread(&|r| r.stiffness[(i, j)]),
+            rms(&|u| u.stiffness.std[i][j]),
+            1.5,
+        );
+    }
+    // The modal parameters: reported for information, with a looser bound
+    // (the spread of 20 values is itself uncertain by about 16 %).
+    for k in 0..2 {
+        check(
+            format!("f{}", k + 1),
+            spread(&|r| r.frequencies_hz[k]),
+            rms(&|u| u.frequencies_hz.std[k]),
+            2.0,
+        );
+        check(
+            format!("xi{}", k + 1),
+            spread(&|r| r.damping_ratios[k]),
+            rms(&|u| u.damping_ratios.std[k]),
+            2.0,
+        );
+    }
+    eprintln!("worst ratio {worst:.2}");
+}
+
+#[test]
+fn the_jackknife_does_not_depend_on_the_number_of_threads() {
+    let s = case1();
+    let mut sc = s.scenario.clone();
+    sc.campaign.hits = 5;
+    let sim = sc.simulator(s.model.clone()).unwrap();
+    let c = sim.simulate(42);
+    let camp = c.to_ident();
+    let id = Identifier::default();
+    let joint = id.identify(&camp.records, c.dt_s).unwrap();
+    let with = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| jackknife(&id, &camp, &joint).unwrap())
+    };
+    let one = with(1);
+    assert_eq!(one, with(2));
+    assert_eq!(one, with(3));
+    // Nested in an outer parallel loop too.
+    let nested: Vec<Jackknife> = (0..2)
+        .into_par_iter()
+        .map(|_| jackknife(&id, &camp, &joint).unwrap())
+        .collect();
+    assert!(nested.iter().all(|u| u == &one));
+}
+
+#[test]
+fn too_few_hits_give_no_uncertainty() {
+    let s = case1();
+    let mut sc = s.scenario.clone();
+    sc.campaign.hits = MIN_HITS - 1;
+    let sim = sc.simulator(s.model.clone()).unwrap();
+    let c = sim.simulate(1);
+    let camp = c.to_ident();
+    let id = Identifier::default();
+    let joint = id.identify(&camp.records, c.dt_s).unwrap();
+    assert_eq!(
+        jackknife(&id, &camp, &joint).unwrap_err(),
+        UncertaintyError::TooFewHits { hits: 2 }
+    );
+}
