@@ -15,10 +15,11 @@
 //!   response/reference pair at line `k`, in `[0, 1]`.
 //!
 //! [`estimate`] computes FRFs and coherence from time records (H1, H2, Hv;
-//! averaged across hammer hits or over Welch segments).
+//! averaged across hammer hits or over Welch segments). [`identify`] turns
+//! FRFs into modes ([`lscf`]: pLSCF poles and stabilization diagram,
+//! [`lsfd`]: residues and residual terms) and then into M, K and damping.
 
 pub mod estimate;
-
 pub mod identify;
 pub mod lscf;
 pub mod lsfd;
