@@ -28,7 +28,9 @@
 //!    dominant left singular vector of its residue matrix (the mode shape of
 //!    `psi l^T`), `residue` is the rank-one part of its *accelerance* residue
 //!    `lambda^2 R_j` (for one reference, the residue itself), `eigenvalue` is
-//!    `exp(lambda dt)` in the pLSCF's z-domain, `structural` is true.
+//!    `exp(lambda dt)` in the pLSCF's z-domain, `structural` is true. With an
+//!    exponential window on the records (`exponential_tau_s`), `lambda` is
+//!    the measured pole moved back by `+1 / tau` first.
 //!    Indicators: no EMAC, MPC of the shape, `cmi = mpc`, and `msv` is the
 //!    peak of the mode's term in the measured FRF, `||A_j||_F / |Re lambda_j|`
 //!    (`msv_relative` over the largest).
@@ -152,6 +154,15 @@ pub struct FrfIdentifier {
     /// Smallest peak contribution of a mode relative to the largest
     /// (`msv_relative`) for it to stay in the modal model.
     pub min_contribution: f64,
+    /// Time constant (s) of an exponential window `exp(-t / tau)` applied to
+    /// the records behind the FRFs (as in
+    /// [`super::estimate::AppliedWindows::exponential_tau_s`]), if any. The
+    /// window turns `H(s)` into `H(s + 1 / tau)`: every pole moves by
+    /// `-1 / tau` and the residues of the measured quantity stay. The
+    /// [`Mode`]s (and so MKR and Rayleigh) get the poles moved back by
+    /// `+1 / tau`; the diagram, the LSFD fit, the rejection of step 5 and
+    /// `msv` describe the measured (windowed) FRFs.
+    pub exponential_tau_s: Option<f64>,
     /// Modes for MKR.
     pub selection: ModeSelection,
     /// Collocated pair (output, reference).
@@ -171,6 +182,7 @@ impl Default for FrfIdentifier {
             residuals: ResidualTerms::default(),
             pole_iterations: 50,
             min_contribution: 0.01,
+            exponential_tau_s: None,
             selection: ModeSelection::Largest,
             collocated: CollocatedPair::default(),
             polarity: PolarityPolicy::default(),
@@ -192,6 +204,8 @@ pub struct FrfModal {
     pub lsfd: Lsfd,
     /// Stable physical pLSCF poles left out of the modal model (step 5).
     pub rejected: Vec<RejectedMode>,
+    /// Time constant of the exponential window taken out of `modes`, s.
+    pub exponential_tau_s: Option<f64>,
 }
 
 /// A stable physical pLSCF pole left out of the modal model.
@@ -265,6 +279,8 @@ pub struct FrfIdentification {
     pub lsfd: Lsfd,
     /// Stable physical pLSCF poles left out of the modal model.
     pub rejected: Vec<RejectedMode>,
+    /// Time constant of the exponential window taken out of `modes`, s.
+    pub exponential_tau_s: Option<f64>,
 }
 
 /// Ways the FRF route can fail.
@@ -491,6 +507,12 @@ impl FrfIdentifier {
         self
     }
 
+    /// Sets the time constant (s) of the exponential window on the records.
+    pub fn exponential_window(mut self, tau_s: f64) -> Self {
+        self.exponential_tau_s = Some(tau_s);
+        self
+    }
+
     /// Sets the MKR mode selection.
     pub fn selection(mut self, selection: ModeSelection) -> Self {
         self.selection = selection;
@@ -538,6 +560,14 @@ impl FrfIdentifier {
     pub fn check(&self) -> Result<(), FrfIdentError> {
         self.lscf_params().check()?;
         self.lsfd_params().check()?;
+        if let Some(tau) = self.exponential_tau_s
+            && !(tau.is_finite() && tau > 0.0)
+        {
+            return Err(FrfIdentError::InvalidParams {
+                field: "exponential_tau_s",
+                reason: format!("{tau} s must be positive and finite"),
+            });
+        }
         if !(0.0..1.0).contains(&self.min_contribution) {
             return Err(FrfIdentError::InvalidParams {
                 field: "min_contribution",
@@ -593,6 +623,7 @@ impl FrfIdentifier {
             .map(|p| p.pole)
             .collect();
         let lsfd_params = self.lsfd_params();
+        let shift = self.exponential_tau_s.map_or(0.0, |tau| 1.0 / tau);
         let mut rejected = Vec::new();
         loop {
             if poles.is_empty() {
@@ -602,19 +633,20 @@ impl FrfIdentifier {
                 });
             }
             let lsfd = lsfd_params.fit(frf, &poles)?;
-            let modes = modes_from_lsfd(&lsfd, diagram.dt_s)?;
+            let modes = modes_from_lsfd(&lsfd, diagram.dt_s, shift)?;
             // Poles that left the physical range first (a runaway pole can
             // have a huge contribution and dwarf the others), then the
             // insignificant ones, each followed by a new fit.
             let (lo, hi) = diagram.band_hz;
-            let left: Vec<Option<RejectReason>> = modes
+            // (On the measured poles: with an exponential window they are
+            // what the FRFs show.)
+            let left: Vec<Option<RejectReason>> = lsfd
+                .poles
                 .iter()
-                .map(|md| {
-                    let physical = md.damping_ratio > 0.0
-                        && md.damping_ratio <= self.max_damping_ratio
-                        && md.frequency_hz >= lo
-                        && md.frequency_hz <= hi;
-                    (!physical).then_some(RejectReason::LeftPhysicalRange { refined: md.pole })
+                .map(|&p| {
+                    let (f, z) = (p.norm() / (2.0 * std::f64::consts::PI), -p.re / p.norm());
+                    let physical = z > 0.0 && z <= self.max_damping_ratio && f >= lo && f <= hi;
+                    (!physical).then_some(RejectReason::LeftPhysicalRange { refined: p })
                 })
                 .collect();
             let reasons = if left.iter().any(Option::is_some) {
@@ -644,6 +676,7 @@ impl FrfIdentifier {
                     modes,
                     lsfd,
                     rejected,
+                    exponential_tau_s: self.exponential_tau_s,
                 });
             }
             // Refit without them, from the pLSCF poles of the others.
@@ -678,6 +711,7 @@ impl FrfIdentifier {
             mut modes,
             mut lsfd,
             rejected,
+            exponential_tau_s,
         } = self.modal(frf)?;
         let selected = self.select(&modes, m, order)?;
         let mut warnings = Vec::new();
@@ -695,11 +729,10 @@ impl FrfIdentifier {
         let d = match (frf.quantity, lsfd.residual(0)) {
             (FrfQuantity::Accelerance, Some(direct)) => direct.clone(),
             _ => {
+                // 2 Re sum_j lambda_j R_j = 2 Re sum_j (lambda_j^2 R_j) / lambda_j
                 let mut d = DMatrix::<f64>::zeros(m, r);
-                for &j in &selected {
-                    let rj = lsfd.receptance_residue(j);
-                    let lambda = lsfd.poles[j];
-                    d += rj.map(|x| 2.0 * (lambda * x).re);
+                for md in &chosen {
+                    d += md.residue.map(|x| 2.0 * (x / md.pole).re);
                 }
                 d
             }
@@ -756,6 +789,7 @@ impl FrfIdentifier {
             diagram,
             lsfd,
             rejected,
+            exponential_tau_s,
         };
         result.ensure_finite()?;
         Ok(result)
@@ -844,17 +878,21 @@ impl FrfIdentifier {
     }
 }
 
-/// [`Mode`]s from an LSFD fit (see step 4 of the module docs).
-fn modes_from_lsfd(lsfd: &Lsfd, dt_s: f64) -> Result<Vec<Mode>, FrfIdentError> {
+/// [`Mode`]s from an LSFD fit (see step 4 of the module docs), each pole
+/// moved by `+shift` (rad/s; the exponential window's `1 / tau`).
+fn modes_from_lsfd(lsfd: &Lsfd, dt_s: f64, shift: f64) -> Result<Vec<Mode>, FrfIdentError> {
+    let q = lsfd.quantity.derivative_order();
     let mut modes = Vec::with_capacity(lsfd.poles.len());
-    for (j, &pole) in lsfd.poles.iter().enumerate() {
-        let (shape, acc) =
-            rank_one(&lsfd.accelerance_residue(j)).map_err(|source| FrfIdentError::Linalg {
-                stage: "rank-one part of a residue",
-                source,
-            })?;
+    for (j, &measured) in lsfd.poles.iter().enumerate() {
+        let pole = measured + shift;
+        let accelerance = lsfd.residues[j].map(|a| a * pole.powi(2 - q));
+        let (shape, acc) = rank_one(&accelerance).map_err(|source| FrfIdentError::Linalg {
+            stage: "rank-one part of a residue",
+            source,
+        })?;
         let mpc = mpc(shape.as_slice());
-        let msv = lsfd.residues[j].norm() / pole.re.abs().max(f64::MIN_POSITIVE);
+        // Peak of the mode's term in the measured FRF.
+        let msv = lsfd.residues[j].norm() / measured.re.abs().max(f64::MIN_POSITIVE);
         modes.push(Mode {
             frequency_hz: pole.norm() / (2.0 * std::f64::consts::PI),
             damping_ratio: -pole.re / pole.norm(),

@@ -53,23 +53,34 @@ pub fn exact_frf(
     quantity: FrfQuantity,
     frequency_hz: Vec<f64>,
 ) -> Frf {
+    windowed_frf(system, outputs, references, quantity, frequency_hz, 0.0)
+}
+
+/// As [`exact_frf`], of records multiplied by `exp(-t / tau)` (`decay =
+/// 1 / tau`, 1/s): `H(s + decay)` at `s = i w`, with `s' = i w + decay` in
+/// `(s')^q (K + s'^2 M + s' damping)^-1`.
+pub fn windowed_frf(
+    system: (&DMatrix<f64>, &DMatrix<f64>, &DMatrix<f64>),
+    outputs: &[usize],
+    references: &[usize],
+    quantity: FrfQuantity,
+    frequency_hz: Vec<f64>,
+    decay: f64,
+) -> Frf {
     let (mass, stiffness, damping) = system;
     let n = mass.nrows();
     let values = frequency_hz
         .iter()
         .map(|&f| {
-            let w = 2.0 * PI * f;
+            let s = C64::new(decay, 2.0 * PI * f);
             let z = DMatrix::from_fn(n, n, |i, j| {
-                C64::new(
-                    stiffness[(i, j)] - w * w * mass[(i, j)],
-                    w * damping[(i, j)],
-                )
+                s * s * mass[(i, j)] + s * damping[(i, j)] + stiffness[(i, j)]
             });
             let h = z
                 .lu()
                 .try_inverse()
                 .expect("dynamic stiffness is invertible");
-            let factor = C64::new(0.0, w).powi(quantity.derivative_order());
+            let factor = s.powi(quantity.derivative_order());
             DMatrix::from_fn(outputs.len(), references.len(), |i, j| {
                 h[(outputs[i], references[j])] * factor
             })
