@@ -31,7 +31,7 @@ pub use identify::{
     RejectReason, RejectedMode, Weighting,
 };
 pub use lscf::{Lscf, LscfParams, LscfPole};
-pub use lsfd::{Lsfd, LsfdParams, ResidualTerms};
+pub use lsfd::{Lsfd, LsfdParams, PoleRefinement, RefineStop, ResidualTerms};
 
 use crate::linalg::C64;
 use nalgebra::DMatrix;
