@@ -9,6 +9,8 @@
 //! (M, K and damping). [`pipeline::Identifier`] runs the whole chain. [`refine`] then
 //! refines M, K and damping by maximum likelihood on all hits at once (any symmetric
 //! damping, with standard errors) and gives the Cramér–Rao bound of a campaign.
+//! [`frf::FrfIdentifier`] reaches the same M, K and damping from measured FRFs instead
+//! (pLSCF stabilization diagram, LSFD residues, then MKR and Rayleigh).
 //!
 //! # Conventions
 //!

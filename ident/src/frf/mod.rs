@@ -15,9 +15,23 @@
 //!   response/reference pair at line `k`, in `[0, 1]`.
 //!
 //! [`estimate`] computes FRFs and coherence from time records (H1, H2, Hv;
-//! averaged across hammer hits or over Welch segments).
+//! averaged across hammer hits or over Welch segments). [`identify`] turns
+//! FRFs into modes ([`lscf`]: pLSCF poles and stabilization diagram,
+//! [`lsfd`]: residues and residual terms) and then into M, K and damping.
 
 pub mod estimate;
+pub mod identify;
+pub mod lscf;
+pub mod lsfd;
+#[cfg(test)]
+pub(crate) mod synth;
+
+pub use identify::{
+    FrfIdentError, FrfIdentification, FrfIdentifier, FrfModal, FrfOrder, ModeSelection,
+    RejectReason, RejectedMode, Weighting,
+};
+pub use lscf::{Lscf, LscfParams, LscfPole};
+pub use lsfd::{Lsfd, LsfdParams, PoleRefinement, RefineStop, ResidualTerms};
 
 use crate::linalg::C64;
 use nalgebra::DMatrix;
