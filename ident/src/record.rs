@@ -53,6 +53,7 @@ impl fmt::Display for Channel {
 
 /// Ways a set of records can be unusable.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum DataError {
     /// No record was given.
     #[error("no records were given")]

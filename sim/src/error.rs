@@ -4,6 +4,7 @@ use thiserror::Error;
 
 /// Why a model or a campaign cannot be built from the given settings.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum SimError {
     /// A setting is out of its valid range. `field` is the setting's path
     /// (for example `storeys[1].length_m`), `problem` says what is wrong.

@@ -62,7 +62,7 @@ pub fn run(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
                 args.observer_order,
             )
             .from_state_space(&realization)
-            .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+            .with_context(|| path.display().to_string())?;
             let source = Source {
                 files: vec![path.display().to_string()],
                 realization: true,

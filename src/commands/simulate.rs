@@ -2,7 +2,7 @@
 
 use std::io::Write;
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use sim::{Acquisition, AnalyzerSettings};
 use study::campaign_dir::write_campaign;
 use study::{LoadedScenario, Scenario};
@@ -16,7 +16,7 @@ pub fn run(args: &SimulateArgs, out: &mut dyn Write) -> Result<()> {
     apply_overrides(&mut scenario, args)?;
     let simulator = scenario
         .simulator(loaded.model.clone())
-        .map_err(|e| anyhow::anyhow!("{}: {e}", args.scenario.display()))?;
+        .with_context(|| args.scenario.display().to_string())?;
     let campaign = simulator.simulate(args.seed);
     write_campaign(
         &args.out,

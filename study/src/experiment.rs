@@ -124,11 +124,18 @@ pub fn cramer_rao_bound(
     noise: &NoiseSettings,
     seed: u64,
 ) -> Result<Bound, RefineError> {
-    let hits: Vec<Vec<Vec<f64>>> = simulator
-        .draw_pulses(seed)
-        .iter()
-        .map(|p| simulator.clean_response(p))
-        .collect();
+    // Noise-free records: hammer pulses through the analyzer chain, or the
+    // shaker's signal. (The hammer path stays the one the bound always
+    // used: without channel errors, which bias but do not inform.)
+    let hits: Vec<Vec<Vec<f64>>> = if simulator.settings().excitation.is_hammer() {
+        simulator
+            .draw_pulses(seed)
+            .iter()
+            .map(|p| simulator.clean_response(p))
+            .collect()
+    } else {
+        simulator.clean_records(seed)
+    };
     let channel_rms = |c: usize| {
         let all: Vec<f64> = hits.iter().flat_map(|h| h[c].iter().copied()).collect();
         sim::noise::rms(&all)

@@ -9,9 +9,8 @@
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
-use sim::{
-    CampaignSettings, DampingSpec, Dashpot, Floor, Model, ShearFrame, SimError, Simulator, Storey,
-};
+pub use sim::StructureSpec;
+use sim::{CampaignSettings, DampingSpec, Dashpot, Model, SimError, Simulator};
 
 /// A scenario as written in its file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -208,33 +207,6 @@ fn no_damping() -> DampingSpec {
     DampingSpec::None
 }
 
-/// The structure: mass and stiffness given directly, or a shear frame
-/// built from geometry.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
-pub enum StructureSpec {
-    /// Mass (kg) and stiffness (N/m) matrices as arrays of rows.
-    Matrices {
-        mass: Vec<Vec<f64>>,
-        stiffness: Vec<Vec<f64>>,
-    },
-    /// Storeys (bottom up) and the floors they carry.
-    ShearFrame {
-        storeys: Vec<Storey>,
-        floors: Vec<Floor>,
-    },
-}
-
-impl StructureSpec {
-    /// Number of floors (DOFs) as written; [`Scenario::model`] checks it.
-    pub fn dofs(&self) -> usize {
-        match self {
-            StructureSpec::Matrices { mass, .. } => mass.len(),
-            StructureSpec::ShearFrame { floors, .. } => floors.len(),
-        }
-    }
-}
-
 /// Why a scenario cannot be used.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
@@ -297,31 +269,11 @@ impl Scenario {
         Ok(s)
     }
 
-    /// Builds and checks the structural model (M, K, damping).
+    /// Builds and checks the structural model (M, K, damping); the mass
+    /// includes the sensor masses.
     pub fn model(&self) -> Result<Model, SimError> {
-        let (mass, stiffness) = match &self.structure {
-            StructureSpec::Matrices { mass, stiffness } => {
-                let n = mass.len();
-                if n == 0 {
-                    return Err(SimError::Invalid {
-                        field: "structure.mass".into(),
-                        problem: "must have at least one row".into(),
-                    });
-                }
-                (
-                    sim::matrix_from_rows("structure.mass", mass, n)?,
-                    sim::matrix_from_rows("structure.stiffness", stiffness, n)?,
-                )
-            }
-            StructureSpec::ShearFrame { storeys, floors } => {
-                let frame = ShearFrame {
-                    storeys: storeys.clone(),
-                    floors: floors.clone(),
-                };
-                frame.check().map_err(|e| prefix("structure.", e))?;
-                (frame.mass_matrix(), frame.stiffness_matrix())
-            }
-        };
+        let m = self.structure.matrices()?;
+        let (mass, stiffness) = (m.mass, m.stiffness);
         let damping = sim::build_damping(&mass, &stiffness, &self.damping, &self.dashpots)?;
         Model::new(mass, stiffness, damping).map_err(|e| match e {
             SimError::NotPositiveDefinite { matrix, pivot } => SimError::Invalid {

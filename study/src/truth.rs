@@ -26,8 +26,14 @@ pub struct Truth {
     /// Floor hit by the hammer, 1-based; the force channel is collocated
     /// with acceleration channel `hit_floor`.
     pub hit_floor: usize,
-    /// Mass matrix, kg (rows).
+    /// Mass matrix, kg (rows): the structure with its sensors, as
+    /// simulated.
     pub mass: Vec<Vec<f64>>,
+    /// Mass matrix without the sensors, kg (rows): `mass` minus
+    /// `sensor_masses_kg` on the diagonal.
+    pub bare_mass: Vec<Vec<f64>>,
+    /// Sensor (accelerometer) mass on each floor, kg.
+    pub sensor_masses_kg: Vec<f64>,
     /// Stiffness matrix, N/m (rows).
     pub stiffness: Vec<Vec<f64>>,
     /// Damping matrix, N s/m (rows).
@@ -38,8 +44,12 @@ pub struct Truth {
     pub damping_ratios: Vec<f64>,
     /// Mode shapes (see the module docs).
     pub mode_shapes: Vec<Vec<[f64; 2]>>,
-    /// The record files and the pulses applied in each hit.
+    /// The record files and the pulses applied in each hit (no pulses for
+    /// shaker excitation).
     pub hits: Vec<HitTruth>,
+    /// What the rig adds that the shear model lacks (extra modes, sensor
+    /// dynamics, channel errors).
+    pub rig: sim::rig::RigTruth,
     /// The scenario as used (command-line overrides applied).
     pub settings: Scenario,
 }
@@ -69,6 +79,7 @@ impl Truth {
         hits: Vec<HitTruth>,
     ) -> Result<Truth, sim::SimError> {
         let modal = model.modal()?;
+        let structure = settings.structure.matrices()?;
         Ok(Truth {
             frameid_version: env!("CARGO_PKG_VERSION").to_string(),
             scenario: settings.name.clone(),
@@ -77,6 +88,8 @@ impl Truth {
             dt_s: settings.campaign.sampling.dt_s(),
             hit_floor: settings.campaign.hammer.floor,
             mass: rows(&model.mass),
+            bare_mass: rows(&structure.bare_mass),
+            sensor_masses_kg: structure.sensor_masses_kg,
             stiffness: rows(&model.stiffness),
             damping: rows(&model.damping),
             frequencies_hz: modal.frequencies_hz,
@@ -87,6 +100,7 @@ impl Truth {
                 .map(|s| s.iter().map(|c| [c.re, c.im]).collect())
                 .collect(),
             hits,
+            rig: sim::rig::RigTruth::new(&settings.campaign.rig, model.dofs()),
             settings: settings.clone(),
         })
     }

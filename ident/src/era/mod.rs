@@ -130,6 +130,7 @@ impl HankelShape {
 
 /// Ways ERA can fail.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum EraError {
     /// Parameters out of range.
     #[error("invalid ERA parameters: {reason}")]

@@ -14,6 +14,7 @@ pub type C64 = Complex<f64>;
 
 /// Numerical failures of the helpers in this module.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum LinalgError {
     /// An iterative decomposition did not converge within its iteration budget.
     #[error("{algorithm} did not converge for a {rows} x {cols} matrix")]

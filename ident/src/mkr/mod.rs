@@ -89,6 +89,7 @@ pub const MAX_IMAGINARY_RATIO: f64 = 1e-8;
 
 /// Ways MKR can fail.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum MkrError {
     /// The collocated pair does not exist in the data.
     #[error(

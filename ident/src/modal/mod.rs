@@ -412,6 +412,7 @@ impl ModalModel {
 
 /// Ways the modal analysis can fail.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ModalError {
     /// Parameters out of range.
     #[error("invalid modal parameters: {reason}")]

@@ -415,6 +415,7 @@ pub struct Okid {
 
 /// Ways OKID can fail.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum OkidError {
     /// Parameters out of range.
     #[error("invalid OKID parameters: {reason}")]

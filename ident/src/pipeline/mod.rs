@@ -778,6 +778,7 @@ impl fmt::Display for Warning {
 
 /// Ways an identification can fail.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum Error {
     /// Parameters out of range.
     #[error("invalid parameters: {reason}")]

@@ -20,6 +20,7 @@ pub struct Rayleigh {
 
 /// Ways the Rayleigh fit can fail.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum RayleighError {
     /// Fewer than two modes.
     #[error("Rayleigh damping needs at least 2 modes, {modes} given")]

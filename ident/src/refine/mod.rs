@@ -369,6 +369,7 @@ pub struct Refinement {
 
 /// Ways a refinement or a bound can fail.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum RefineError {
     /// Parameters out of range.
     #[error("invalid refinement parameters: {reason}")]

@@ -219,6 +219,7 @@ pub fn failure_reason(e: &ident::Error) -> String {
         E::OutputsFewerThanDofs { .. } => "fewer outputs than DOFs",
         E::OrderNotIdentifiable { .. } => "order not identifiable",
         E::NonFiniteResult { .. } => "non-finite result",
+        _ => "identification failed",
     }
     .to_string()
 }
@@ -236,6 +237,7 @@ pub fn refine_failure_reason(e: &ident::RefineError) -> String {
         E::TooFewBins { .. } => "too few bins",
         E::NotIdentifiable { .. } => "not identifiable",
         E::ModalAnalysis => "modal analysis failed",
+        _ => "failed",
     };
     format!("refinement: {what}")
 }
