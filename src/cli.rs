@@ -98,6 +98,9 @@ pub struct SimulateArgs {
     /// Acquisition model (overrides the scenario)
     #[arg(long, value_enum)]
     pub acquisition: Option<AcquisitionArg>,
+    /// Write even if the records would take more than 1 GiB on disk
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Debug, Args)]
@@ -211,6 +214,9 @@ pub struct SweepArgs {
     /// Run only part K of N of the trials (e.g. 2/4); join the parts with `frameid merge`
     #[arg(long)]
     pub shard: Option<String>,
+    /// Run even if `trials.csv` would take more than 1 GiB
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Debug, Args)]

@@ -8,3 +8,10 @@
 pub mod cli;
 pub mod commands;
 pub mod output;
+
+/// Prints a warning on stderr; a closed stderr is not an error worth
+/// failing for (the result is on stdout or in files).
+pub fn warn(message: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "warning: {message}");
+}

@@ -196,9 +196,11 @@ fn bad_sweep_arguments_are_refused() {
         (vec!["--shard", "3/2"], "--shard: need 1 <= K <= N"),
         (
             vec!["--noise=-0.1"],
-            "sweep.noise[0]: must be a fraction >= 0",
+            "--noise: level 1 must be a fraction >= 0, got -0.1",
         ),
-        (vec!["--trials", "0"], "sweep.trials: must be at least 1"),
+        // Flags are named as flags, not as fields of the scenario file.
+        (vec!["--noise", "0.01,nan"], "--noise: level 2"),
+        (vec!["--trials", "0"], "--trials: must be at least 1"),
         (vec!["--threads", "0"], "--threads: must be at least 1"),
     ] {
         let mut args = vec!["sweep", s(&scenario), "--out", s(dir.path())];

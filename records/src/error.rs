@@ -21,6 +21,21 @@ pub enum RecordError {
         error: std::io::Error,
     },
 
+    /// An output file could not be written (the message names it).
+    #[error(transparent)]
+    Output(#[from] fsio::FsError),
+
+    /// The file is larger than a record file can be.
+    #[error("{}: {bytes} bytes, more than the {limit} bytes a record file may have", path.display())]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// Its size.
+        bytes: u64,
+        /// The limit ([`crate::MAX_FILE_BYTES`]).
+        limit: u64,
+    },
+
     /// The file content is not a usable record.
     #[error("{}: {at}{problem}", path.display())]
     Parse {

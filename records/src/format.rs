@@ -138,14 +138,35 @@ pub fn parse_record(
     detect(bytes).read(bytes, path, opts)
 }
 
-/// Reads a record file of any known format.
-pub fn read_record(path: &Path, opts: &ReadOptions) -> Result<RecordFile, RecordError> {
-    opts.validate()?;
-    let bytes = std::fs::read(path).map_err(|error| RecordError::Io {
+/// Largest record file read, bytes. A file is read whole and its samples
+/// are held as doubles: 2 GiB of text is about 100 million values (a
+/// 10^6-sample record of 100 channels), far beyond any hammer or shaker
+/// record of a building model.
+pub const MAX_FILE_BYTES: u64 = 2 << 30;
+
+/// Reads a whole file, refusing one larger than [`MAX_FILE_BYTES`] before
+/// reading it.
+pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>, RecordError> {
+    let io = |error| RecordError::Io {
         path: path.to_path_buf(),
         op: IoOp::Read,
         error,
-    })?;
+    };
+    let len = std::fs::metadata(path).map_err(io)?.len();
+    if len > MAX_FILE_BYTES {
+        return Err(RecordError::TooLarge {
+            path: path.to_path_buf(),
+            bytes: len,
+            limit: MAX_FILE_BYTES,
+        });
+    }
+    std::fs::read(path).map_err(io)
+}
+
+/// Reads a record file of any known format.
+pub fn read_record(path: &Path, opts: &ReadOptions) -> Result<RecordFile, RecordError> {
+    opts.validate()?;
+    let bytes = read_bytes(path)?;
     parse_record(&bytes, path, opts)
 }
 

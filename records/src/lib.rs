@@ -63,8 +63,8 @@ mod write;
 pub use crate::csv::parse_csv;
 pub use crate::error::{CampaignMismatch, IoOp, Location, Problem, RecordError};
 pub use crate::format::{
-    CAMPAIGN_DT_REL_TOL, Csv, FORMATS, FileFormat, Uff58, check_campaign, detect, parse_record,
-    read_campaign, read_record, write_csv, write_record, write_uff58,
+    CAMPAIGN_DT_REL_TOL, Csv, FORMATS, FileFormat, MAX_FILE_BYTES, Uff58, check_campaign, detect,
+    parse_record, read_campaign, read_record, write_csv, write_record, write_uff58,
 };
 pub use crate::record::{Channel, Format, ReadOptions, RecordFile};
 pub use crate::select::select;

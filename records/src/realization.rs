@@ -9,7 +9,7 @@ use std::path::Path;
 
 use nalgebra::DMatrix;
 
-use crate::error::{IoOp, RecordError};
+use crate::error::RecordError;
 
 /// Default names of a realization's outputs and inputs (`y1`.., `u1`..).
 pub type ChannelNames = (Vec<String>, Vec<String>);
@@ -24,11 +24,8 @@ fn bad(path: &Path, problem: impl Into<String>) -> RecordError {
 /// Reads a realization file. Returns the realization and default channel
 /// names (outputs, inputs).
 pub fn read_realization(path: &Path) -> Result<(ident::StateSpace, ChannelNames), RecordError> {
-    let text = std::fs::read_to_string(path).map_err(|error| RecordError::Io {
-        path: path.to_path_buf(),
-        op: IoOp::Read,
-        error,
-    })?;
+    let bytes = crate::format::read_bytes(path)?;
+    let text = String::from_utf8(bytes).map_err(|_| bad(path, "not UTF-8 text"))?;
     let value: serde_json::Value =
         serde_json::from_str(&text).map_err(|e| bad(path, format!("not valid JSON: {e}")))?;
     let obj = value

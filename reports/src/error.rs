@@ -1,5 +1,3 @@
-use std::path::PathBuf;
-
 /// Why a report could not be rendered or written.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -24,13 +22,8 @@ pub enum ReportError {
         /// The drawing error.
         detail: String,
     },
-    /// Writing the HTML file failed; no partial file is left at `path`.
-    #[error("writing report to {path}: {source}")]
-    Io {
-        /// The file that was to be written.
-        path: PathBuf,
-        /// The I/O error.
-        #[source]
-        source: std::io::Error,
-    },
+    /// Writing the HTML file failed (the message names it); no partial file
+    /// is left.
+    #[error(transparent)]
+    Io(#[from] fsio::FsError),
 }

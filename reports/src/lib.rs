@@ -54,9 +54,7 @@ pub mod model;
 mod svg;
 mod validate;
 
-use std::fs;
-use std::io::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 pub use error::ReportError;
 pub use model::{
@@ -70,60 +68,13 @@ pub fn render(report: &Report) -> Result<String, ReportError> {
     html::render(report)
 }
 
-/// Renders the report and writes it to `path` atomically: the document is
-/// written to a temporary file in the same directory, flushed, then renamed
-/// over `path`. On any error `path` is left as it was and the temporary file
-/// is removed.
+/// Renders the report and writes it to `path` atomically (see
+/// [`fsio::write_file`]): a temporary file in the same directory, flushed,
+/// then renamed over `path`; a symbolic link is followed and a target that
+/// is not a regular file is refused. On any error `path` is left as it was
+/// and no temporary file remains.
 pub fn render_to_file(report: &Report, path: impl AsRef<Path>) -> Result<(), ReportError> {
     let path = path.as_ref();
     let html = render(report)?;
-    write_atomic(path, html.as_bytes()).map_err(|source| ReportError::Io {
-        path: path.to_path_buf(),
-        source,
-    })
-}
-
-fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let name = path.file_name().ok_or_else(|| {
-        std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "the path does not name a file",
-        )
-    })?;
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let (tmp, mut file) = create_temp(&dir, &name.to_string_lossy())?;
-    let result = file
-        .write_all(bytes)
-        .and_then(|()| file.sync_all())
-        .and_then(|()| {
-            drop(file);
-            fs::rename(&tmp, path)
-        });
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
-    }
-    result
-}
-
-/// Creates a new, uniquely named temporary file next to the target.
-fn create_temp(dir: &Path, name: &str) -> std::io::Result<(PathBuf, fs::File)> {
-    use std::sync::atomic::{AtomicU64, Ordering};
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let pid = std::process::id();
-    loop {
-        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let tmp = dir.join(format!(".{name}.{pid}.{n}.tmp"));
-        match fs::OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&tmp)
-        {
-            Ok(f) => return Ok((tmp, f)),
-            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && n < 1_000_000 => continue,
-            Err(e) => return Err(e),
-        }
-    }
+    fsio::write_file(path, html.as_bytes()).map_err(ReportError::from)
 }

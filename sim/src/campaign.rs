@@ -176,6 +176,41 @@ pub struct Simulator {
     channel_errors: Option<ChannelErrors>,
 }
 
+/// Largest campaign held in memory, bytes: hits x samples x channels x 8.
+/// A simulated campaign (and every trial of a sweep, one per worker
+/// thread) is held whole; 4 GiB leaves room on a 16 GB machine and is
+/// about 25 000 hits of the paper's records.
+pub const MAX_CAMPAIGN_BYTES: u64 = 4 << 30;
+
+/// Refuses a campaign whose samples would not fit in
+/// [`MAX_CAMPAIGN_BYTES`], naming the field that makes it too large.
+fn check_campaign_size(hits: usize, samples: usize, channels: usize) -> Result<(), SimError> {
+    let gib = |b: u128| b as f64 / (1u64 << 30) as f64;
+    let record = samples as u128 * channels as u128 * 8;
+    if record > MAX_CAMPAIGN_BYTES as u128 {
+        return Err(SimError::invalid(
+            "sampling.samples",
+            format!(
+                "{samples} samples x {channels} channels need {:.1} GiB per record; at most {:.0} GiB of samples are held in memory",
+                gib(record),
+                gib(MAX_CAMPAIGN_BYTES as u128)
+            ),
+        ));
+    }
+    let total = record * hits as u128;
+    if total > MAX_CAMPAIGN_BYTES as u128 {
+        return Err(SimError::invalid(
+            "hits",
+            format!(
+                "{hits} hits of {samples} samples x {channels} channels need {:.1} GiB; at most {:.0} GiB of samples are held in memory",
+                gib(total),
+                gib(MAX_CAMPAIGN_BYTES as u128)
+            ),
+        ));
+    }
+    Ok(())
+}
+
 impl Simulator {
     /// Checks the settings against the model and builds the response
     /// engine. Errors name the field relative to `[campaign]`.
@@ -201,6 +236,7 @@ impl Simulator {
                 format!("must be below the record length {}", s.samples),
             ));
         }
+        check_campaign_size(settings.hits, s.samples, n + 1)?;
         if let Some(crate::noise::ColouredNoise {
             spectrum:
                 crate::noise::NoiseSpectrum::Pink {

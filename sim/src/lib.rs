@@ -45,7 +45,8 @@ pub mod structure;
 
 pub use analyzer::AnalyzerSettings;
 pub use campaign::{
-    Acquisition, Campaign, CampaignSettings, Hit, Sampling, Simulator, derive_seed,
+    Acquisition, Campaign, CampaignSettings, Hit, MAX_CAMPAIGN_BYTES, Sampling, Simulator,
+    derive_seed,
 };
 pub use damping::{DampingSpec, Dashpot, build_damping, matrix_from_rows};
 pub use error::SimError;

@@ -46,8 +46,23 @@ fn parse_collocated(text: &str, outputs: &[String], inputs: &[String]) -> Result
     Ok((find("output", o, outputs)?, find("input", i, inputs)?))
 }
 
+/// Checks the numeric flags before any file is read, so that an error
+/// names the flag.
+fn check_flags(args: &IdentifyArgs) -> Result<()> {
+    if let Some(fs) = args.fs
+        && !(fs.is_finite() && fs > 0.0)
+    {
+        bail!("--fs: must be a positive sampling rate in Hz, got {fs}");
+    }
+    if args.observer_order == Some(0) {
+        bail!("--observer-order: must be at least 1");
+    }
+    Ok(())
+}
+
 /// Runs the command, writing the result to `out`.
 pub fn run(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
+    check_flags(args)?;
     let report = match &args.realization {
         Some(path) => {
             let (realization, names) = records::realization::read_realization(path)?;

@@ -2,12 +2,12 @@
 
 use std::io::Write;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use sim::{Acquisition, AnalyzerSettings};
 use study::campaign_dir::write_campaign;
 use study::{LoadedScenario, Scenario};
 
-use crate::cli::{AcquisitionArg, SimulateArgs};
+use crate::cli::{AcquisitionArg, RecordFormat, SimulateArgs};
 
 /// Runs the command; says what was written.
 pub fn run(args: &SimulateArgs, out: &mut dyn Write) -> Result<()> {
@@ -16,7 +16,24 @@ pub fn run(args: &SimulateArgs, out: &mut dyn Write) -> Result<()> {
     apply_overrides(&mut scenario, args)?;
     let simulator = scenario
         .simulator(loaded.model.clone())
-        .with_context(|| args.scenario.display().to_string())?;
+        .map_err(|e| match e {
+            // The hit count may come from --hits: name the flag.
+            sim::SimError::Invalid { field, problem }
+                if field == "campaign.hits" && args.hits.is_some() =>
+            {
+                anyhow::anyhow!("--hits: {problem}")
+            }
+            other => anyhow::Error::new(other).context(args.scenario.display().to_string()),
+        })?;
+    let c = &scenario.campaign;
+    crate::commands::sweep::check_output_size(
+        &args.out.display().to_string(),
+        c.hits as u128
+            * c.sampling.samples as u128
+            * (loaded.model.dofs() as u128 + 1)
+            * bytes_per_value(args.format),
+        args.force,
+    )?;
     let campaign = simulator.simulate(args.seed);
     write_campaign(
         &args.out,
@@ -36,6 +53,17 @@ pub fn run(args: &SimulateArgs, out: &mut dyn Write) -> Result<()> {
         args.out.display()
     )?;
     Ok(())
+}
+
+/// Bytes a value takes in a record file: the shortest round-trip decimal
+/// and a separator in CSV (up to 24), 20 columns plus a share of the line
+/// end in UFF ASCII (4E20.12), 8 in binary UFF.
+fn bytes_per_value(format: RecordFormat) -> u128 {
+    match format {
+        RecordFormat::Csv => 24,
+        RecordFormat::Uff => 21,
+        RecordFormat::UffBinary => 8,
+    }
 }
 
 fn apply_overrides(s: &mut Scenario, args: &SimulateArgs) -> Result<()> {

@@ -26,18 +26,14 @@ pub const STUDY_TRIALS: usize = 50;
 /// Runs the command.
 pub fn run(args: &StudyArgs, out: &mut dyn Write) -> Result<()> {
     let threads = threads(args.threads)?;
+    let trials = crate::commands::sweep::trials(args.trials)?.unwrap_or(STUDY_TRIALS);
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("{}: cannot create directory", args.out.display()))?;
     let start = Instant::now();
     let mut dirs = Vec::new();
     for (name, _) in BUILTIN {
         let loaded = LoadedScenario::builtin(name)?;
-        let plan = Plan::new(
-            &loaded,
-            None,
-            Some(args.trials.unwrap_or(STUDY_TRIALS)),
-            None,
-        )?;
+        let plan = Plan::new(&loaded, None, Some(trials), None)?;
         let dir = args.out.join(&loaded.scenario.name);
         let t = Instant::now();
         let done = execute(&loaded, &plan, &dir, None, threads)?;
@@ -46,7 +42,7 @@ pub fn run(args: &StudyArgs, out: &mut dyn Write) -> Result<()> {
             out,
             "\n{} ({} trials, {:.1} s): median errors per noise level",
             loaded.scenario.name,
-            plan.keys().len(),
+            done.trials,
             t.elapsed().as_secs_f64()
         )?;
         write!(out, "{}", summary_table(&summary))?;

@@ -17,13 +17,57 @@ pub fn default_threads() -> usize {
     std::thread::available_parallelism().map_or(1, |n| n.get())
 }
 
+/// Most worker threads: far beyond any machine's cores, below what an
+/// operating system refuses to start.
+pub const MAX_THREADS: usize = 1024;
+
+/// Largest output written without `--force`, bytes.
+pub const MAX_OUTPUT_BYTES: u128 = 1 << 30;
+
 /// Checks `--threads`.
 pub fn threads(arg: Option<usize>) -> Result<usize> {
     match arg {
         Some(0) => bail!("--threads: must be at least 1"),
+        Some(n) if n > MAX_THREADS => bail!("--threads: {n} is more than {MAX_THREADS}"),
         Some(n) => Ok(n),
         None => Ok(default_threads()),
     }
+}
+
+/// Checks `--trials`.
+pub fn trials(arg: Option<usize>) -> Result<Option<usize>> {
+    match arg {
+        Some(0) => bail!("--trials: must be at least 1"),
+        t => Ok(t),
+    }
+}
+
+/// Checks `--noise`: fractions >= 0, each once.
+pub fn noise_levels(arg: Option<&[f64]>) -> Result<Option<&[f64]>> {
+    let Some(levels) = arg else {
+        return Ok(None);
+    };
+    for (i, &n) in levels.iter().enumerate() {
+        if !(n.is_finite() && n >= 0.0) {
+            bail!("--noise: level {} must be a fraction >= 0, got {n}", i + 1);
+        }
+        if levels[..i].contains(&n) {
+            bail!("--noise: level {n} appears twice");
+        }
+    }
+    Ok(Some(levels))
+}
+
+/// Refuses an output estimated above [`MAX_OUTPUT_BYTES`] unless forced.
+pub fn check_output_size(what: &str, bytes: u128, force: bool) -> Result<()> {
+    if bytes > MAX_OUTPUT_BYTES && !force {
+        bail!(
+            "{what} would take about {:.1} GiB (more than {} GiB); pass --force to write it anyway",
+            bytes as f64 / (1u64 << 30) as f64,
+            MAX_OUTPUT_BYTES >> 30
+        );
+    }
+    Ok(())
 }
 
 /// A progress bar for `len` trials on stderr when it is a terminal.
@@ -53,21 +97,29 @@ pub fn execute(
     let done = sweep::execute(&loaded.path, plan, out, shard, threads, &|| bar.inc(1))?;
     bar.finish_and_clear();
     for w in &done.warnings {
-        eprintln!("warning: {w}");
+        crate::warn(w);
     }
     Ok(done)
 }
 
 /// Runs the command.
 pub fn run(args: &SweepArgs, out: &mut dyn Write) -> Result<()> {
-    let loaded = LoadedScenario::load(&args.scenario)?;
-    let plan = Plan::new(&loaded, args.noise.as_deref(), args.trials, args.seed)?;
+    // Flags first: an error names the flag, not the scenario file.
+    let noise = noise_levels(args.noise.as_deref())?;
+    let trials = trials(args.trials)?;
     let shard: Option<Shard> = args
         .shard
         .as_deref()
         .map(|s| s.parse().map_err(|e| anyhow::anyhow!("--shard: {e}")))
         .transpose()?;
     let threads = threads(args.threads)?;
+    let loaded = LoadedScenario::load(&args.scenario)?;
+    let plan = Plan::new(&loaded, noise, trials, args.seed)?;
+    check_output_size(
+        &format!("{}/trials.csv", args.out.display()),
+        plan.output_bytes(shard),
+        args.force,
+    )?;
     let start = Instant::now();
     let done = execute(&loaded, &plan, &args.out, shard, threads)?;
     let elapsed = start.elapsed().as_secs_f64();
@@ -95,12 +147,9 @@ pub fn run(args: &SweepArgs, out: &mut dyn Write) -> Result<()> {
 /// Runs `frameid merge`.
 pub fn merge(args: &MergeArgs, out: &mut dyn Write) -> Result<()> {
     let dirs: Vec<&Path> = args.dirs.iter().map(|d| d.as_path()).collect();
-    let summary = sweep::merge(&dirs, &args.out)?;
-    let truth = sweep::plan_truth(&summary.plan)?;
-    for w in
-        sweep::write_representative(&summary.plan.scenario, &truth, summary.plan.seed, &args.out)?
-    {
-        eprintln!("warning: {w}");
+    let merged = sweep::merge(&dirs, &args.out)?;
+    for w in &merged.warnings {
+        crate::warn(w);
     }
     writeln!(
         out,
@@ -108,6 +157,6 @@ pub fn merge(args: &MergeArgs, out: &mut dyn Write) -> Result<()> {
         dirs.len(),
         args.out.display()
     )?;
-    write!(out, "{}", summary_table(&summary))?;
+    write!(out, "{}", summary_table(&merged.summary))?;
     Ok(())
 }

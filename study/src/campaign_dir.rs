@@ -68,36 +68,11 @@ pub fn write_hits(
     Ok(paths)
 }
 
-/// Deletes `hitNN.csv` / `hitNN.uff` files left by an earlier run, so the
-/// directory holds exactly one campaign.
-pub fn remove_stale_hits(dir: &Path) -> Result<(), StudyError> {
-    let entries = std::fs::read_dir(dir).map_err(|e| StudyError::io(dir, "list directory", e))?;
-    for entry in entries {
-        let path = entry
-            .map_err(|e| StudyError::io(dir, "list directory", e))?
-            .path();
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let is_hit = name
-            .strip_prefix("hit")
-            .and_then(|r| r.split_once('.'))
-            .is_some_and(|(num, ext)| {
-                !num.is_empty()
-                    && num.bytes().all(|b| b.is_ascii_digit())
-                    && (ext == "csv" || ext == "uff")
-            });
-        if is_hit {
-            std::fs::remove_file(&path)
-                .map_err(|e| StudyError::io(&path, "remove stale record", e))?;
-        }
-    }
-    Ok(())
-}
-
 /// Writes a simulated campaign of `loaded` (its scenario as used, overrides
-/// applied, in `scenario`) into `dir`: the hits and `truth.json`.
+/// applied, in `scenario`) into `dir`: the hits and `truth.json`. The
+/// directory appears whole or not at all (see [`fsio::OutputDir`]); a
+/// previous campaign there (a directory with `truth.json`) is replaced, any
+/// other non-empty directory is refused.
 pub fn write_campaign(
     dir: &Path,
     loaded: &LoadedScenario,
@@ -106,9 +81,8 @@ pub fn write_campaign(
     campaign: &Campaign,
     format: Format,
 ) -> Result<Vec<PathBuf>, StudyError> {
-    std::fs::create_dir_all(dir).map_err(|e| StudyError::io(dir, "create directory", e))?;
-    remove_stale_hits(dir)?;
-    let files = write_hits(dir, campaign, format)?;
+    let out = fsio::OutputDir::create(dir, "truth.json")?;
+    let files = write_hits(out.path(), campaign, format)?;
     let hits = files
         .iter()
         .zip(&campaign.hits)
@@ -126,6 +100,10 @@ pub fn write_campaign(
             error,
         }
     })?;
-    write_json(&dir.join("truth.json"), &truth)?;
-    Ok(files)
+    write_json(&out.path().join("truth.json"), &truth)?;
+    let final_dir = out.commit()?;
+    Ok(files
+        .iter()
+        .map(|f| final_dir.join(f.file_name().expect("hit files have names")))
+        .collect())
 }

@@ -17,6 +17,11 @@ pub enum StudyError {
     #[error(transparent)]
     Record(#[from] records::RecordError),
 
+    /// An output file or directory could not be written (the message names
+    /// it).
+    #[error(transparent)]
+    Output(#[from] fsio::FsError),
+
     /// The operating system refused a file operation. The message is
     /// self-contained (the I/O error is kept as a field, not chained, so
     /// that error chains do not print it twice).

@@ -26,9 +26,38 @@ pub fn study(dir: &Path) -> Result<rm::Study, StudyError> {
         ));
     }
     let summary: Summary = read_json(&path, "a sweep summary")?;
+    // The files of one directory must come from one run: a hand-made mix
+    // (files copied from another sweep) is refused.
+    let mixed = |file: &Path, what: &str| {
+        StudyError::bad_file(
+            file,
+            None,
+            format!(
+                "{what} than {}: the directory mixes files of different runs; rerun the sweep",
+                path.display()
+            ),
+        )
+    };
+    let manifest_path = dir.join("sweep.json");
+    if manifest_path.exists() {
+        let manifest: crate::sweep::Manifest = read_json(&manifest_path, "a sweep manifest")?;
+        if manifest.plan != summary.plan {
+            return Err(mixed(&manifest_path, "another sweep plan"));
+        }
+        if manifest.shard.is_some() {
+            return Err(StudyError::bad_file(
+                &manifest_path,
+                None,
+                "a shard of a sweep; merge the shards first (`frameid merge`)",
+            ));
+        }
+    }
     let rep_path = dir.join("representative.json");
     let representative = if rep_path.exists() {
         let file: RepresentativeFile = read_json(&rep_path, "a representative campaign")?;
+        if file.seed != sim::derive_seed(summary.plan.seed, crate::sweep::BOUND_TAG) {
+            return Err(mixed(&rep_path, "a campaign of another seed"));
+        }
         Some(file.representative)
     } else {
         None

@@ -133,17 +133,33 @@ impl Plan {
         }
     }
 
-    /// Every trial in canonical order.
-    pub fn keys(&self) -> Vec<TrialKey> {
-        let mut keys = Vec::new();
-        for axis in 0..self.axis_values().len() {
-            for noise in 0..self.noise_levels.len() {
-                for trial in 0..self.trials {
-                    keys.push(TrialKey { axis, noise, trial });
-                }
-            }
+    /// Number of trials: axis values x noise levels x trials (`None` if it
+    /// overflows).
+    pub fn trial_count(&self) -> Option<usize> {
+        self.axis_values()
+            .len()
+            .checked_mul(self.noise_levels.len())?
+            .checked_mul(self.trials)
+    }
+
+    /// The trial at `position` in canonical order (axis value, noise level,
+    /// trial).
+    pub fn key_at(&self, position: usize) -> TrialKey {
+        let per_axis = self.noise_levels.len() * self.trials;
+        TrialKey {
+            axis: position / per_axis,
+            noise: position % per_axis / self.trials,
+            trial: position % self.trials,
         }
-        keys
+    }
+
+    /// Every trial in canonical order, generated as needed (a plan of a
+    /// billion trials allocates nothing here).
+    pub fn keys(&self) -> impl Iterator<Item = TrialKey> + '_ {
+        (0..self
+            .trial_count()
+            .expect("trial count checked with the plan"))
+            .map(|p| self.key_at(p))
     }
 
     /// Seed of a trial.
@@ -189,14 +205,36 @@ impl Plan {
         )
     }
 
-    /// The keys of the trials of `shard` (all if `None`), in canonical order.
+    /// The keys of the trials of `shard` (all if `None`), in canonical
+    /// order; only the shard's trials are generated.
     pub fn shard_keys(&self, shard: Option<Shard>) -> Vec<TrialKey> {
-        self.keys()
-            .into_iter()
-            .enumerate()
-            .filter(|&(i, _)| shard.is_none_or(|s| s.contains(i)))
-            .map(|(_, k)| k)
+        let total = self
+            .trial_count()
+            .expect("trial count checked with the plan");
+        let (first, step) = shard.map_or((0, 1), |s| (s.index - 1, s.count));
+        (first..total)
+            .step_by(step)
+            .map(|p| self.key_at(p))
             .collect()
+    }
+
+    /// Trials in `shard` (all if `None`), without generating them.
+    pub fn shard_len(&self, shard: Option<Shard>) -> usize {
+        let total = self
+            .trial_count()
+            .expect("trial count checked with the plan");
+        match shard {
+            None => total,
+            Some(s) => total.saturating_sub(s.index - 1).div_ceil(s.count),
+        }
+    }
+
+    /// A generous estimate of the bytes `trials.csv` takes for `shard`:
+    /// about 24 characters per score (shortest round-trip doubles) plus
+    /// the fixed columns.
+    pub fn output_bytes(&self, shard: Option<Shard>) -> u128 {
+        let per_row = 24 * self.score_keys().len() as u128 + 120;
+        per_row * self.shard_len(shard) as u128
     }
 }
 
@@ -623,7 +661,8 @@ pub struct Manifest {
     pub shard: Option<Shard>,
 }
 
-/// Writes a sweep directory: `trials.csv`, `summary.json` (complete runs
+/// Writes the files of a sweep into `dir` (a fresh directory being built,
+/// see [`fsio::OutputDir`]): `trials.csv`, `summary.json` (complete runs
 /// only: pass their summary) and `sweep.json`.
 pub fn write_dir(
     dir: &Path,
@@ -632,16 +671,9 @@ pub fn write_dir(
     rows: &[TrialRow],
     summary: Option<&Summary>,
 ) -> Result<(), StudyError> {
-    std::fs::create_dir_all(dir).map_err(|e| StudyError::io(dir, "create directory", e))?;
     write_trials(&dir.join("trials.csv"), &manifest.plan, keys, rows)?;
     if let Some(summary) = summary {
         write_json(&dir.join("summary.json"), summary)?;
-    } else {
-        // A shard's summary would be partial: remove a stale one.
-        let stale = dir.join("summary.json");
-        if stale.exists() {
-            std::fs::remove_file(&stale).map_err(|e| StudyError::io(&stale, "remove", e))?;
-        }
     }
     write_json(&dir.join("sweep.json"), manifest)
 }
@@ -659,8 +691,9 @@ pub fn read_manifest(dir: &Path) -> Result<Manifest, StudyError> {
     read_json(&path, "a sweep manifest")
 }
 
-/// Joins shard directories into what one run gives.
-pub fn merge(dirs: &[&Path], out: &Path) -> Result<Summary, StudyError> {
+/// Joins shard directories into what one run gives (with the
+/// representative campaign), written whole into `out`.
+pub fn merge(dirs: &[&Path], out: &Path) -> Result<Merged, StudyError> {
     let merge_error = |problem: String| StudyError::Merge { problem };
     if dirs.is_empty() {
         return Err(merge_error("merge: no directories given".into()));
@@ -694,8 +727,7 @@ pub fn merge(dirs: &[&Path], out: &Path) -> Result<Summary, StudyError> {
             }
         }
     }
-    let expected = first.plan.keys();
-    if let Some(missing) = expected.iter().find(|k| !rows.contains_key(k)) {
+    if let Some(missing) = first.plan.keys().find(|k| !rows.contains_key(k)) {
         return Err(merge_error(format!(
             "merge: trial {} at noise {}{} is missing: are all shards given?",
             missing.trial,
@@ -712,8 +744,25 @@ pub fn merge(dirs: &[&Path], out: &Path) -> Result<Summary, StudyError> {
         ..first.clone()
     };
     let summary = summarize(&manifest.plan, &truth, &keys, &rows);
-    write_dir(out, &manifest, &keys, &rows, Some(&summary))?;
-    Ok(summary)
+    let dir = fsio::OutputDir::create(out, "sweep.json")?;
+    write_dir(dir.path(), &manifest, &keys, &rows, Some(&summary))?;
+    let warnings = write_representative(
+        &manifest.plan.scenario,
+        &truth,
+        manifest.plan.seed,
+        dir.path(),
+    )?;
+    dir.commit()?;
+    Ok(Merged { summary, warnings })
+}
+
+/// What [`merge`] did.
+#[derive(Debug, Clone)]
+pub struct Merged {
+    /// The summary of all trials.
+    pub summary: Summary,
+    /// Things the user should know (e.g. no representative campaign).
+    pub warnings: Vec<String>,
 }
 
 /// The true model of a plan's scenario.
@@ -764,13 +813,25 @@ impl Plan {
                 error,
             },
         })?;
-        Ok(Plan {
+        let plan = Plan {
             noise_levels: scenario.sweep.noise.clone(),
             trials: scenario.sweep.trials,
             seed: scenario.sweep.seed,
             axis: scenario.sweep.axis.clone(),
             scenario,
-        })
+        };
+        if plan.trial_count().is_none() {
+            return Err(StudyError::InvalidSetting {
+                setting: "trials".into(),
+                problem: format!(
+                    "{} trials x {} noise levels x {} axis values overflow a count of trials",
+                    plan.trials,
+                    plan.noise_levels.len(),
+                    plan.axis_values().len()
+                ),
+            });
+        }
+        Ok(plan)
     }
 }
 
@@ -798,6 +859,8 @@ pub fn execute(
 ) -> Result<Execution, StudyError> {
     let truth = plan_truth(plan)?;
     let keys = plan.score_keys();
+    // Checked before any trial runs: the directory can be replaced.
+    let dir = fsio::OutputDir::create(out, "sweep.json")?;
     let rows = run(plan, &truth, shard, threads, progress)?;
     let manifest = Manifest {
         frameid_version: env!("CARGO_PKG_VERSION").into(),
@@ -806,7 +869,8 @@ pub fn execute(
         shard,
     };
     if shard.is_some() {
-        write_dir(out, &manifest, &keys, &rows, None)?;
+        write_dir(dir.path(), &manifest, &keys, &rows, None)?;
+        dir.commit()?;
         return Ok(Execution {
             summary: None,
             trials: rows.len(),
@@ -814,8 +878,9 @@ pub fn execute(
         });
     }
     let summary = summarize(plan, &truth, &keys, &rows);
-    write_dir(out, &manifest, &keys, &rows, Some(&summary))?;
-    let warnings = write_representative(&plan.scenario, &truth, plan.seed, out)?;
+    write_dir(dir.path(), &manifest, &keys, &rows, Some(&summary))?;
+    let warnings = write_representative(&plan.scenario, &truth, plan.seed, dir.path())?;
+    dir.commit()?;
     Ok(Execution {
         summary: Some(summary),
         trials: rows.len(),
