@@ -172,18 +172,32 @@ pub fn jackknife(
     if let Some(p) = observer_order {
         id = id.observer_order(ObserverOrder::Fixed(p));
     }
-    let results: Vec<Result<Identification, Error>> = (0..n)
-        .into_par_iter()
-        .map(|left_out| {
-            let subset: Vec<Record> = records
-                .iter()
-                .enumerate()
-                .filter(|&(k, _)| k != left_out)
-                .map(|(_, r)| r.clone())
-                .collect();
-            id.identify(&subset, dt_s)
-        })
-        .collect();
+    // Each resample is the joint regression without one hit: the records are validated
+    // and their OKID lagged products accumulated once, and every resample subtracts one
+    // hit's share. If the records cannot be prepared as a whole, each subset is
+    // identified from scratch (and fails or not on its own).
+    let prepared = id.check().and_then(|valid| {
+        let prepared = valid.prepare(records, dt_s)?;
+        Ok((valid, prepared))
+    });
+    let results: Vec<Result<Identification, Error>> = match &prepared {
+        Ok((valid, prepared)) => (0..n)
+            .into_par_iter()
+            .map(|left_out| valid.identify_without(prepared, left_out))
+            .collect(),
+        Err(_) => (0..n)
+            .into_par_iter()
+            .map(|left_out| {
+                let subset: Vec<Record> = records
+                    .iter()
+                    .enumerate()
+                    .filter(|&(k, _)| k != left_out)
+                    .map(|(_, r)| r.clone())
+                    .collect();
+                id.identify(&subset, dt_s)
+            })
+            .collect(),
+    };
     let mut ok = Vec::with_capacity(n);
     let mut failed = Vec::new();
     let dofs = joint.frequencies_hz.len();

@@ -42,11 +42,33 @@
 
 use crate::linalg::{self, LinalgError};
 use crate::record::{self, DataError, Record};
-use nalgebra::{DMatrix, QR};
+use nalgebra::{DMatrix, QR, SymmetricEigen};
 use serde::{Deserialize, Serialize};
+
+mod moments;
+pub(crate) use moments::Moments;
+use moments::nested_rss;
 
 #[cfg(test)]
 mod tests;
+
+/// The normal equations are solved only if the smallest eigenvalue of the regressors'
+/// scaled Gram matrix is at least this fraction of the largest (condition number of the
+/// regression at most 1e5): the normal equations then lose at most 1e-6 of relative
+/// accuracy, far below the scatter that makes such data well conditioned (measurement
+/// noise). Noise-free data, whose redundant directions sit at round-off, go through QR.
+const NORMAL_CONDITION_LIMIT: f64 = 1e-10;
+
+/// A Cholesky pivot of the scaled Gram matrix below this fraction of its column's sum of
+/// squares (a column within 1e-5 radians of the span of the previous ones) sends the fit to
+/// the QR route.
+const PIVOT_LIMIT: f64 = 1e-10;
+
+/// A relative residual below this sends the fit to the QR route: the residual sum of
+/// squares from the normal equations carries an error of round-off times the squared
+/// condition number (at most 1e-6 of the outputs' sum of squares), so nearly exact fits
+/// (noise-free data) are solved from the data.
+const NORMAL_RESIDUAL_LIMIT: f64 = 1e-4;
 
 /// How the observer order `p` is chosen.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -166,10 +188,26 @@ impl OkidParams {
     pub fn fit(&self, records: &[Record]) -> Result<Okid, OkidError> {
         self.check()?;
         let shape = record::validate(records)?;
-        let (r, m) = (shape.inputs, shape.outputs);
-        let q = self.leads;
-        let p_max = self.max_order();
-        let required = p_max + q + 1;
+        let refs: Vec<&Record> = records.iter().collect();
+        let layout = self.layout(shape.inputs, shape.outputs);
+        self.check_lengths(&refs)?;
+        let moments = Moments::of_records(&refs, &layout);
+        self.fit_moments(&moments, &refs)
+    }
+
+    /// The regression layout at the largest order for `r` inputs and `m` outputs.
+    pub(crate) fn layout(&self, r: usize, m: usize) -> Layout {
+        Layout {
+            r,
+            m,
+            q: self.leads,
+            p: self.max_order(),
+        }
+    }
+
+    /// Every record must be long enough for the largest order and the leads.
+    pub(crate) fn check_lengths(&self, records: &[&Record]) -> Result<(), OkidError> {
+        let required = self.max_order() + self.leads + 1;
         for (index, rec) in records.iter().enumerate() {
             if rec.len() < required {
                 return Err(DataError::TooShort {
@@ -181,18 +219,170 @@ impl OkidParams {
                 .into());
             }
         }
-        let layout = Layout { r, m, q, p: p_max };
-        let ncols = layout.columns(p_max);
-        let equations: usize = records.iter().map(|rec| rec.len() - q).sum();
-        if equations < ncols {
+        Ok(())
+    }
+
+    /// Fits from the accumulated lagged products `moments` of `records` (validated, long
+    /// enough; `moments` built with the same leads and an order at least
+    /// [`OkidParams::max_order`]). The normal equations are solved when they are accurate
+    /// (see the module docs); otherwise the records are reduced by QR.
+    pub(crate) fn fit_moments(
+        &self,
+        moments: &Moments,
+        records: &[&Record],
+    ) -> Result<Okid, OkidError> {
+        self.check()?;
+        let lay = moments.layout;
+        assert!(
+            lay.q == self.leads && lay.p >= self.max_order(),
+            "OKID moments built for another layout"
+        );
+        let layout = Layout {
+            p: self.max_order(),
+            ..lay
+        };
+        let ncols = layout.columns(layout.p);
+        if moments.equations < ncols {
             return Err(OkidError::Underdetermined {
-                equations,
+                equations: moments.equations,
                 unknowns: ncols,
             });
         }
+        match self.fit_normal(moments, &layout)? {
+            Some(okid) => Ok(okid),
+            None => self.fit_qr(records, &layout, moments.equations),
+        }
+    }
 
-        let scales = Scales::new(records, r, m);
-        let rfac = triangular_factor(records, &layout, &scales)?;
+    /// The normal-equation route; `None` when it would not be accurate.
+    fn fit_normal(&self, moments: &Moments, layout: &Layout) -> Result<Option<Okid>, OkidError> {
+        let m = layout.m;
+        let scales = moments.scales();
+        let ncols = layout.columns(layout.p);
+        let gram = moments.scaled_gram(layout, &scales);
+        if let Some((row, col)) = linalg::first_non_finite(&gram) {
+            return Err(LinalgError::NonFinite {
+                what: "OKID correlation matrix",
+                row,
+                col,
+            }
+            .into());
+        }
+        let y_ss: f64 = (0..m).map(|i| gram[(ncols + i, ncols + i)]).sum();
+        let (p, bic) = match self.order {
+            ObserverOrder::Fixed(p) => (p, Vec::new()),
+            ObserverOrder::Auto { max } => {
+                let Some(rss) = nested_rss(&gram, layout) else {
+                    return Ok(None);
+                };
+                self.bic(&|p| rss[p - 1], layout, moments.equations, y_ss, max)
+            }
+        };
+        let c = layout.columns(p);
+        let gxx = gram.view((0, 0), (c, c)).into_owned();
+        let gxy = gram.view((0, ncols), (c, m)).into_owned();
+        let eig = SymmetricEigen::new(gxx.clone());
+        let lambda_max = eig.eigenvalues.max();
+        let lambda_min = eig.eigenvalues.min();
+        if !(lambda_max > 0.0 && lambda_min >= NORMAL_CONDITION_LIMIT * lambda_max) {
+            return Ok(None);
+        }
+        let vty = eig.eigenvectors.transpose() * &gxy;
+        let layout = Layout { p, ..*layout };
+        let mut rcond = self.rcond;
+        let mut raises = Vec::new();
+        loop {
+            let floor = rcond * rcond * lambda_max;
+            let mut scaled = vty.clone();
+            let mut rank = 0;
+            for (i, &l) in eig.eigenvalues.iter().enumerate() {
+                if l > floor {
+                    scaled.row_mut(i).scale_mut(1.0 / l);
+                    rank += 1;
+                } else {
+                    scaled.row_mut(i).fill(0.0);
+                }
+            }
+            let theta = &eig.eigenvectors * scaled;
+            let coeffs = layout.coefficients(&theta, &scales);
+            let radius = linalg::spectral_radius(&companion(&coeffs.b, m))?;
+            if radius < 1.0 && radius.is_finite() {
+                let fit_ss = y_ss - 2.0 * theta.dot(&gxy) + theta.dot(&(&gxx * &theta));
+                let relative_residual = (fit_ss.max(0.0) / y_ss).sqrt();
+                if relative_residual < NORMAL_RESIDUAL_LIMIT {
+                    return Ok(None);
+                }
+                return Ok(Some(self.finish(
+                    coeffs,
+                    FitInfo {
+                        p,
+                        rcond,
+                        raises,
+                        rank,
+                        unknowns: c,
+                        equations: moments.equations,
+                        spectral_radius: radius,
+                        bic,
+                        relative_residual,
+                    },
+                )));
+            }
+            if raises.len() >= self.max_rcond_raises || rcond * 10.0 >= 1.0 {
+                return Err(OkidError::UnstableObserver {
+                    spectral_radius: radius,
+                    rcond,
+                    observer_order: p,
+                });
+            }
+            raises.push(RcondRaise {
+                from: rcond,
+                to: rcond * 10.0,
+                spectral_radius: radius,
+            });
+            rcond *= 10.0;
+        }
+    }
+
+    /// BIC of every order `1..=max` from the nested residual sums of squares; returns the
+    /// best order and the criteria.
+    fn bic(
+        &self,
+        rss: &dyn Fn(usize) -> f64,
+        layout: &Layout,
+        equations: usize,
+        y_ss: f64,
+        max: usize,
+    ) -> (usize, Vec<f64>) {
+        let m = layout.m;
+        let n_obs = (equations * m) as f64;
+        let floor = BIC_RELATIVE_FLOOR * BIC_RELATIVE_FLOOR * y_ss;
+        let bic: Vec<f64> = (1..=max)
+            .map(|p| {
+                let rss = rss(p).max(floor).max(f64::MIN_POSITIVE);
+                let params = (m * layout.columns(p)) as f64;
+                n_obs * (rss / n_obs).ln() + params * n_obs.ln()
+            })
+            .collect();
+        let best = bic
+            .iter()
+            .enumerate()
+            .min_by(|a, b| a.1.total_cmp(b.1))
+            .map(|(i, _)| i + 1)
+            .unwrap_or(1);
+        (best, bic)
+    }
+
+    /// The QR route: the stacked regression reduced record by record.
+    fn fit_qr(
+        &self,
+        records: &[&Record],
+        layout: &Layout,
+        equations: usize,
+    ) -> Result<Okid, OkidError> {
+        let m = layout.m;
+        let ncols = layout.columns(layout.p);
+        let scales = Scales::new(records, layout.r, m);
+        let rfac = triangular_factor(records, layout, &scales)?;
 
         // Residual sum of squares of every nested order from the one factor.
         let y_block = rfac.columns(ncols, m);
@@ -204,31 +394,14 @@ impl OkidParams {
 
         let (p, bic) = match self.order {
             ObserverOrder::Fixed(p) => (p, Vec::new()),
-            ObserverOrder::Auto { max } => {
-                let n_obs = (equations * m) as f64;
-                let floor = BIC_RELATIVE_FLOOR * BIC_RELATIVE_FLOOR * y_ss;
-                let bic: Vec<f64> = (1..=max)
-                    .map(|p| {
-                        let rss = rss(p).max(floor).max(f64::MIN_POSITIVE);
-                        let params = (m * layout.columns(p)) as f64;
-                        n_obs * (rss / n_obs).ln() + params * n_obs.ln()
-                    })
-                    .collect();
-                let best = bic
-                    .iter()
-                    .enumerate()
-                    .min_by(|a, b| a.1.total_cmp(b.1))
-                    .map(|(i, _)| i + 1)
-                    .unwrap_or(1);
-                (best, bic)
-            }
+            ObserverOrder::Auto { max } => self.bic(&rss, layout, equations, y_ss, max),
         };
 
         let c = layout.columns(p);
         let r11 = rfac.view((0, 0), (c, c)).into_owned();
         let rhs = rfac.view((0, ncols), (c, m)).into_owned();
         let svd = linalg::thin_svd(&r11)?;
-        let layout = Layout { p, ..layout };
+        let layout = Layout { p, ..*layout };
 
         let mut rcond = self.rcond;
         let mut raises = Vec::new();
@@ -442,8 +615,8 @@ pub enum OkidError {
 
 /// Column layout of the regression: leads `u[n+q] .. u[n+1]`, then `u[n]`, then
 /// `[u[n-i]; y[n-i]]` for `i = 1..=p`.
-#[derive(Debug, Clone, Copy)]
-struct Layout {
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Layout {
     r: usize,
     m: usize,
     q: usize,
@@ -497,8 +670,8 @@ struct Scales {
 }
 
 impl Scales {
-    fn new(records: &[Record], r: usize, m: usize) -> Self {
-        let total: usize = records.iter().map(Record::len).sum();
+    fn new(records: &[&Record], r: usize, m: usize) -> Self {
+        let total: usize = records.iter().map(|rec| rec.len()).sum();
         let rms = |get: &dyn Fn(&Record) -> &DMatrix<f64>, ch: usize| -> f64 {
             let ss: f64 = records
                 .iter()
@@ -520,7 +693,7 @@ const ROWS_PER_BLOCK: usize = 4096;
 /// Triangular factor of the stacked regression `[X | Y]` over all records, accumulated
 /// block by block (`R <- qr([R; Z_block]).R`).
 fn triangular_factor(
-    records: &[Record],
+    records: &[&Record],
     layout: &Layout,
     s: &Scales,
 ) -> Result<DMatrix<f64>, LinalgError> {

@@ -226,3 +226,121 @@ fn data_errors_are_typed() {
         Err(OkidError::Data(DataError::NoRecords))
     );
 }
+
+/// The stacked regression `[X | Y]` written out row by row (the definition in the module
+/// docs), in raw units: the naive oracle of the lagged products.
+fn regression_matrix(records: &[Record], layout: &Layout) -> DMatrix<f64> {
+    let (r, m, q, p) = (layout.r, layout.m, layout.q, layout.p);
+    let ncols = layout.columns(p);
+    let rows: usize = records.iter().map(|rec| rec.len() - q).sum();
+    let mut z = DMatrix::zeros(rows, ncols + m);
+    let mut row = 0;
+    for rec in records {
+        let u = |ch: usize, k: isize| {
+            if k < 0 {
+                0.0
+            } else {
+                rec.inputs[(ch, k as usize)]
+            }
+        };
+        let y = |ch: usize, k: isize| {
+            if k < 0 {
+                0.0
+            } else {
+                rec.outputs[(ch, k as usize)]
+            }
+        };
+        for n in 0..(rec.len() - q) as isize {
+            for t in 0..q {
+                for ch in 0..r {
+                    z[(row, t * r + ch)] = u(ch, n + (q - t) as isize);
+                }
+            }
+            for ch in 0..r {
+                z[(row, q * r + ch)] = u(ch, n);
+            }
+            for i in 1..=p {
+                let base = (q + 1) * r + (i - 1) * (r + m);
+                for ch in 0..r {
+                    z[(row, base + ch)] = u(ch, n - i as isize);
+                }
+                for ch in 0..m {
+                    z[(row, base + r + ch)] = y(ch, n - i as isize);
+                }
+            }
+            for ch in 0..m {
+                z[(row, ncols + ch)] = y(ch, n);
+            }
+            row += 1;
+        }
+    }
+    z
+}
+
+#[test]
+fn lagged_products_equal_the_gram_matrix_of_the_regression() {
+    let mut rng = ChaCha8Rng::seed_from_u64(31);
+    // (outputs, inputs, order, leads); record lengths cross the correlation block size.
+    for &(m, r, p, q) in &[(2usize, 1usize, 5usize, 0usize), (3, 1, 4, 3), (2, 2, 3, 2)] {
+        let sys = random_stable_system(&mut rng, 4, m, r, 0.9);
+        let records = white_noise_records(&mut rng, &sys, &[40, 4200, 4096 + 7]);
+        let layout = Layout { r, m, q, p };
+        let refs: Vec<&Record> = records.iter().collect();
+        let got = Moments::of_records(&refs, &layout);
+        let z = regression_matrix(&records, &layout);
+        let want = z.transpose() * &z;
+        let scale = want.amax();
+        // Same products summed in another order: round-off of sums of ~8000 terms.
+        assert!(
+            (&got.gram - &want).amax() < 1e-12 * scale,
+            "m={m} r={r} p={p} q={q}: {:e}",
+            (&got.gram - &want).amax() / scale
+        );
+        assert_eq!(got.equations, z.nrows());
+        // Leaving a record out is the Gram matrix of the others.
+        let without = got.without(&Moments::of_record(&records[1], &layout));
+        let z = regression_matrix(&[records[0].clone(), records[2].clone()], &layout);
+        let want = z.transpose() * &z;
+        // Cancellation against the left-out record's share: round-off of the full sums.
+        assert!((&without.gram - &want).amax() < 1e-12 * scale);
+        assert_eq!(without.equations, z.nrows());
+    }
+}
+
+/// On noisy records (the case the normal equations serve) both routes give the same
+/// observer, the same order and the same Markov parameters.
+#[test]
+fn normal_equations_agree_with_qr_on_noisy_records() {
+    let mut rng = ChaCha8Rng::seed_from_u64(32);
+    for &(m, r, q) in &[(2usize, 1usize, 0usize), (3, 1, 4)] {
+        let sys = random_stable_system(&mut rng, 6, m, r, 0.95);
+        let mut records = white_noise_records(&mut rng, &sys, &[600, 800, 500]);
+        for rec in &mut records {
+            let level = 0.01 * rec.outputs.norm() / (rec.outputs.len() as f64).sqrt();
+            rec.outputs.apply(|v| *v += level * normal(&mut rng));
+        }
+        let params = OkidParams::zoh()
+            .order(ObserverOrder::Auto { max: 8 })
+            .leads(q)
+            .rcond(1e-6)
+            .markov_count(60);
+        let refs: Vec<&Record> = records.iter().collect();
+        let layout = params.layout(r, m);
+        let moments = Moments::of_records(&refs, &layout);
+        let normal_fit = params
+            .fit_normal(&moments, &layout)
+            .unwrap()
+            .expect("noisy records take the normal equations");
+        let qr = params.fit_qr(&refs, &layout, moments.equations).unwrap();
+        assert_eq!(normal_fit.observer_order, qr.observer_order);
+        assert_eq!(normal_fit.rank, qr.rank);
+        let err = max_relative_difference(&normal_fit.markov, &qr.markov);
+        // Condition number of the scaled regression ~1e2 here: the normal equations
+        // lose about 1e-16 * 1e4 = 1e-12; 1e-9 leaves room for the recursion over 60 terms.
+        assert!(err < 1e-9, "m={m} q={q}: {err:e}");
+        assert!((normal_fit.relative_residual / qr.relative_residual - 1.0).abs() < 1e-9);
+        for (a, b) in normal_fit.bic.iter().zip(&qr.bic) {
+            assert!((a - b).abs() < 1e-9 * b.abs(), "{a} {b}");
+        }
+    }
+}

@@ -39,11 +39,12 @@ use crate::era::{Correlation, EraError, EraParams, HankelShape, ModelOrder};
 use crate::linalg::{self, C64};
 use crate::mkr::{CollocatedPair, MkrError, MkrParams, PolarityPolicy};
 use crate::modal::{Intersample, ModalError, ModalModel, ModalParams, Mode, StructuralRule};
-use crate::okid::{ObserverOrder, OkidError, OkidParams};
+use crate::okid::{Moments, ObserverOrder, OkidError, OkidParams};
 use crate::rayleigh::{Rayleigh, RayleighError};
 use crate::record::{self, DataError, Record};
 use crate::statespace::StateSpace;
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 mod stabilization;
@@ -296,6 +297,25 @@ impl ValidIdentifier {
     fn decompose(&self, records: &[Record], dt_s: f64) -> Result<Decomposed, Error> {
         record::validate_dt(dt_s)?;
         let shape = record::validate(records)?;
+        let refs: Vec<&Record> = records.iter().collect();
+        let peaks: Vec<usize> = if self.okid.leads > 0 {
+            records.iter().map(peak_sample).collect()
+        } else {
+            Vec::new()
+        };
+        self.decompose_with(&refs, &peaks, shape, dt_s, None)
+    }
+
+    /// [`ValidIdentifier::decompose`] of validated records with their input peaks (empty
+    /// without leads) and, if already accumulated, their OKID moments.
+    fn decompose_with(
+        &self,
+        records: &[&Record],
+        peaks: &[usize],
+        shape: record::RecordShape,
+        dt_s: f64,
+        moments: Option<&Moments>,
+    ) -> Result<Decomposed, Error> {
         let (m, r) = (shape.outputs, shape.inputs);
         self.check_dofs(m)?;
         self.mkr.check(m, r)?;
@@ -326,12 +346,16 @@ impl ValidIdentifier {
             }),
             other => Error::Era(other),
         })?;
-        let okid = self
-            .okid
-            .markov_count(hankel.markov_needed())
-            .fit(records)
-            .map_err(Error::from_okid)?;
-        let mut warnings = short_pretriggers(records, okid.leads);
+        let params = self.okid.markov_count(hankel.markov_needed());
+        let okid = match moments {
+            Some(moments) => params.fit_moments(moments, records),
+            None => params.check_lengths(records).and_then(|()| {
+                let moments = Moments::of_records(records, &params.layout(r, m));
+                params.fit_moments(&moments, records)
+            }),
+        }
+        .map_err(Error::from_okid)?;
+        let mut warnings = short_pretriggers(peaks, okid.leads);
         warnings.extend(okid.rcond_raises.iter().map(|raise| Warning::RcondRaised {
             from: raise.from,
             to: raise.to,
@@ -353,8 +377,85 @@ impl ValidIdentifier {
         })
     }
 
+    /// Validates `records` once and accumulates their OKID moments, for identifications of
+    /// subsets (the jackknife).
+    pub(crate) fn prepare<'a>(
+        &self,
+        records: &'a [Record],
+        dt_s: f64,
+    ) -> Result<Prepared<'a>, Error> {
+        record::validate_dt(dt_s)?;
+        let shape = record::validate(records)?;
+        let refs: Vec<&Record> = records.iter().collect();
+        self.okid.check_lengths(&refs).map_err(Error::from_okid)?;
+        let layout = self.okid.layout(shape.inputs, shape.outputs);
+        let per_record: Vec<Moments> = records
+            .par_iter()
+            .map(|rec| Moments::of_record(rec, &layout))
+            .collect();
+        let mut total = Moments::zeros(&layout);
+        for mom in &per_record {
+            total.add(mom);
+        }
+        let peaks = records.iter().map(peak_sample).collect();
+        Ok(Prepared {
+            records,
+            dt_s,
+            per_record,
+            total,
+            peaks,
+        })
+    }
+
+    /// Runs the whole chain on the prepared records without record `left_out`.
+    pub(crate) fn identify_without(
+        &self,
+        prepared: &Prepared,
+        left_out: usize,
+    ) -> Result<Identification, Error> {
+        let keep: Vec<usize> = (0..prepared.records.len())
+            .filter(|&k| k != left_out)
+            .collect();
+        let refs: Vec<&Record> = keep.iter().map(|&k| &prepared.records[k]).collect();
+        let first = refs.first().ok_or(Error::Data(DataError::NoRecords))?;
+        let m = first.outputs.nrows();
+        let mut shape = record::RecordShape {
+            inputs: first.inputs.nrows(),
+            outputs: m,
+            longest: 0,
+            longest_record: 0,
+            total_samples: 0,
+        };
+        for (index, rec) in refs.iter().enumerate() {
+            if rec.len() > shape.longest {
+                shape.longest = rec.len();
+                shape.longest_record = index;
+            }
+            shape.total_samples += rec.len();
+        }
+        if let Some(ch) = (0..m).find(|&ch| {
+            refs.iter()
+                .all(|rec| rec.outputs.row(ch).iter().all(|&x| x == 0.0))
+        }) {
+            return Err(Error::Data(DataError::DeadChannel {
+                channel: record::Channel::Output(ch),
+            }));
+        }
+        let peaks: Vec<usize> = keep.iter().map(|&k| prepared.peaks[k]).collect();
+        let moments = prepared.total.without(&prepared.per_record[left_out]);
+        let decomposed =
+            self.decompose_with(&refs, &peaks, shape, prepared.dt_s, Some(&moments))?;
+        self.identify_decomposed(decomposed)
+    }
+
     /// Runs the whole chain on `records`.
     pub fn identify(&self, records: &[Record], dt_s: f64) -> Result<Identification, Error> {
+        let decomposed = self.decompose(records, dt_s)?;
+        self.identify_decomposed(decomposed)
+    }
+
+    /// Order choice, modal analysis, MKR and Rayleigh after OKID and ERA.
+    fn identify_decomposed(&self, decomposed: Decomposed) -> Result<Identification, Error> {
         let Decomposed {
             outputs: m,
             okid,
@@ -362,7 +463,7 @@ impl ValidIdentifier {
             dec,
             mut warnings,
             ..
-        } = self.decompose(records, dt_s)?;
+        } = decomposed;
         let candidates = match era_params.order {
             ModelOrder::Fixed(n) => vec![n],
             ModelOrder::Auto { max } => dec.orders_by_gap(max),
@@ -550,19 +651,15 @@ impl ValidIdentifier {
 /// precedes the record, which is accurate only if the hit (the largest input sample) comes
 /// at least `2 q` samples after the record start (measured on a 2-DOF frame with `q = 8`:
 /// 16 samples give 1e-5 errors on M and K, 8 samples 2e-3, 4 samples fail).
-fn short_pretriggers(records: &[Record], leads: usize) -> Vec<Warning> {
+fn short_pretriggers(peaks: &[usize], leads: usize) -> Vec<Warning> {
     if leads == 0 {
         return Vec::new();
     }
     let recommended = 2 * leads;
-    records
+    peaks
         .iter()
         .enumerate()
-        .filter_map(|(record, rec)| {
-            let (peak_sample, _) = (0..rec.len()).fold((0, -1.0), |best, k| {
-                let v = rec.inputs.column(k).amax();
-                if v > best.1 { (k, v) } else { best }
-            });
+        .filter_map(|(record, &peak_sample)| {
             (peak_sample < recommended).then_some(Warning::ShortPretrigger {
                 record,
                 peak_sample,
@@ -570,6 +667,26 @@ fn short_pretriggers(records: &[Record], leads: usize) -> Vec<Warning> {
             })
         })
         .collect()
+}
+
+/// First sample of a record's largest input magnitude.
+fn peak_sample(rec: &Record) -> usize {
+    (0..rec.len())
+        .fold((0, -1.0), |best, k| {
+            let v = rec.inputs.column(k).amax();
+            if v > best.1 { (k, v) } else { best }
+        })
+        .0
+}
+
+/// Records validated once, with their OKID moments and input peaks, from which subsets are
+/// identified without repeating the work ([`ValidIdentifier::prepare`]).
+pub(crate) struct Prepared<'a> {
+    records: &'a [Record],
+    dt_s: f64,
+    per_record: Vec<Moments>,
+    total: Moments,
+    peaks: Vec<usize>,
 }
 
 /// OKID's result and the ERA decomposition, before the order is chosen.

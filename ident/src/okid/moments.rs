@@ -1,0 +1,270 @@
+//! Lagged products of the records: the normal equations of the OKID regression.
+//!
+//! Every entry of the Gram matrix `[X | Y]^T [X | Y]` of the stacked regression is a sum
+//! over samples of a product of two channels at two lags. For one record it is the full
+//! cross-correlation of the two channels at the lag difference, minus the few products
+//! that the zero-initial-condition form leaves out at the record's start (leads) and end
+//! (the last `q + lag` samples). The correlations are computed once per record, in blocks
+//! of samples so that long records need no copies, and summed over the records; a
+//! leave-one-record-out Gram matrix is the sum minus that record's contribution.
+
+use super::Layout;
+use crate::record::Record;
+use nalgebra::DMatrix;
+
+/// Samples per block of the correlation sums (the block and its margin of lags are copied
+/// into contiguous buffers).
+const BLOCK: usize = 4096;
+
+/// Gram matrix of the OKID regression of some records, in the records' units.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Moments {
+    /// Layout the Gram matrix was built for (its order is the largest usable).
+    pub(crate) layout: Layout,
+    /// `columns(p) + m` square, regressors then targets, raw units.
+    pub(super) gram: DMatrix<f64>,
+    /// Sum of squares of every channel (inputs then outputs) over all samples.
+    channel_ss: Vec<f64>,
+    /// Samples in all records.
+    samples: usize,
+    /// Equations (rows) of the stacked regression.
+    pub(crate) equations: usize,
+}
+
+/// Channel (inputs first, then outputs) and lag of regression column `j`; the targets
+/// follow the regressors at lag 0.
+fn column(layout: &Layout, j: usize) -> (usize, isize) {
+    let (r, m, q, p) = (layout.r, layout.m, layout.q, layout.p);
+    if j < q * r {
+        (j % r, -((q - j / r) as isize))
+    } else if j < (q + 1) * r {
+        (j - q * r, 0)
+    } else if j < layout.columns(p) {
+        let k = j - (q + 1) * r;
+        let lag = (k / (r + m) + 1) as isize;
+        (k % (r + m), lag)
+    } else {
+        (r + j - layout.columns(p), 0)
+            .min((r + m - 1, 0))
+            .max((r, 0))
+    }
+}
+
+/// Dot product with eight independent partial sums (vectorizes).
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let b = &b[..a.len()];
+    let mut acc = [0.0f64; 8];
+    let ca = a.chunks_exact(8);
+    let cb = b.chunks_exact(8);
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for j in 0..8 {
+            acc[j] += x[j] * y[j];
+        }
+    }
+    let mut s = ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+    for (x, y) in ra.iter().zip(rb) {
+        s += x * y;
+    }
+    s
+}
+
+impl Moments {
+    /// Zero moments for `layout`.
+    pub(crate) fn zeros(layout: &Layout) -> Self {
+        let w = layout.columns(layout.p) + layout.m;
+        Self {
+            layout: *layout,
+            gram: DMatrix::zeros(w, w),
+            channel_ss: vec![0.0; layout.r + layout.m],
+            samples: 0,
+            equations: 0,
+        }
+    }
+
+    /// Sum of the moments of `records`, in order.
+    pub(crate) fn of_records(records: &[&Record], layout: &Layout) -> Self {
+        let mut total = Self::zeros(layout);
+        for rec in records {
+            total.add(&Self::of_record(rec, layout));
+        }
+        total
+    }
+
+    /// Adds another set of records' moments.
+    pub(crate) fn add(&mut self, other: &Moments) {
+        assert_eq!(
+            self.layout.columns(self.layout.p),
+            other.layout.columns(other.layout.p)
+        );
+        self.gram += &other.gram;
+        for (a, b) in self.channel_ss.iter_mut().zip(&other.channel_ss) {
+            *a += b;
+        }
+        self.samples += other.samples;
+        self.equations += other.equations;
+    }
+
+    /// These moments without those of `other` (a subset of the same records).
+    pub(crate) fn without(&self, other: &Moments) -> Moments {
+        let mut out = self.clone();
+        out.gram -= &other.gram;
+        for (a, b) in out.channel_ss.iter_mut().zip(&other.channel_ss) {
+            *a = (*a - b).max(0.0);
+        }
+        out.samples -= other.samples;
+        out.equations -= other.equations;
+        out
+    }
+
+    /// Moments of one record (at least `p + q + 1` samples long).
+    pub(crate) fn of_record(rec: &Record, layout: &Layout) -> Self {
+        let (r, m, q, p) = (layout.r, layout.m, layout.q, layout.p);
+        let nch = r + m;
+        let len = rec.len();
+        assert!(len > p + q, "OKID moments: record too short");
+        let n_eq = len - q;
+        let x = |ch: usize, k: usize| -> f64 {
+            if ch < r {
+                rec.inputs[(ch, k)]
+            } else {
+                rec.outputs[(ch - r, k)]
+            }
+        };
+        // Largest lag difference d = l1 - l2 >= 0 needed for channels (a, b): the largest
+        // lag of a minus the smallest lag of b.
+        let dmax = p + q;
+        let reach = |b: usize| if b < r { p + q } else { p };
+        let stride = dmax + 1;
+        let mut corr = vec![0.0; nch * nch * stride];
+        let mut bufs = vec![vec![0.0; BLOCK + dmax]; nch];
+        let mut k0 = 0;
+        while k0 < len {
+            let k1 = (k0 + BLOCK).min(len);
+            let end = (k1 + dmax).min(len);
+            for (ch, buf) in bufs.iter_mut().enumerate() {
+                for (j, v) in buf[..end - k0].iter_mut().enumerate() {
+                    *v = x(ch, k0 + j);
+                }
+            }
+            for a in 0..nch {
+                for b in 0..nch {
+                    for d in 0..=reach(b) {
+                        let stop = k1.min(len.saturating_sub(d));
+                        if stop <= k0 {
+                            continue;
+                        }
+                        let n = stop - k0;
+                        corr[(a * nch + b) * stride + d] += dot(&bufs[a][..n], &bufs[b][d..d + n]);
+                    }
+                }
+            }
+            k0 = k1;
+        }
+        let w = layout.columns(p) + m;
+        let cols: Vec<(usize, isize)> = (0..w).map(|j| column(layout, j)).collect();
+        let (len_i, n_eq_i) = (len as isize, n_eq as isize);
+        let mut gram = DMatrix::zeros(w, w);
+        for i in 0..w {
+            let (a, l1) = cols[i];
+            for j in i..w {
+                let (b, l2) = cols[j];
+                let d = l1 - l2;
+                let full = if d >= 0 {
+                    corr[(a * nch + b) * stride + d as usize]
+                } else {
+                    corr[(b * nch + a) * stride + (-d) as usize]
+                };
+                // Sum over k (sample of channel a) of x_a[k] x_b[k + d]: the full
+                // correlation runs over max(0, -d) ..= min(len - 1, len - 1 - d); the
+                // regression over max(0, -d, -l1) ..= n_eq - 1 - l1.
+                let full_lo = 0.max(-d);
+                let lo = full_lo.max(-l1);
+                let full_hi = (len_i - 1).min(len_i - 1 - d);
+                let hi = n_eq_i - 1 - l1;
+                let mut outside = 0.0;
+                for k in full_lo..lo {
+                    outside += x(a, k as usize) * x(b, (k + d) as usize);
+                }
+                for k in hi + 1..=full_hi {
+                    outside += x(a, k as usize) * x(b, (k + d) as usize);
+                }
+                let v = full - outside;
+                gram[(i, j)] = v;
+                gram[(j, i)] = v;
+            }
+        }
+        let channel_ss = (0..nch).map(|ch| corr[(ch * nch + ch) * stride]).collect();
+        Self {
+            layout: *layout,
+            gram,
+            channel_ss,
+            samples: len,
+            equations: n_eq,
+        }
+    }
+
+    /// RMS scales of the channels (1 for a channel that is zero everywhere).
+    pub(super) fn scales(&self) -> super::Scales {
+        let r = self.layout.r;
+        let rms = |ss: f64| {
+            let v = (ss / self.samples as f64).sqrt();
+            if v > 0.0 && v.is_finite() { v } else { 1.0 }
+        };
+        super::Scales {
+            u: self.channel_ss[..r].iter().map(|&ss| rms(ss)).collect(),
+            y: self.channel_ss[r..].iter().map(|&ss| rms(ss)).collect(),
+        }
+    }
+
+    /// Gram matrix of the regression at `layout` (same leads, order at most the moments'),
+    /// with every channel divided by its scale.
+    pub(super) fn scaled_gram(&self, layout: &Layout, s: &super::Scales) -> DMatrix<f64> {
+        let own = &self.layout;
+        let (r, m) = (own.r, own.m);
+        let c = layout.columns(layout.p);
+        let own_c = own.columns(own.p);
+        let index = |j: usize| if j < c { j } else { own_c + j - c };
+        let scale = |j: usize| {
+            let (ch, _) = column(layout, j);
+            if ch < r { s.u[ch] } else { s.y[ch - r] }
+        };
+        let w = c + m;
+        let scales: Vec<f64> = (0..w).map(scale).collect();
+        DMatrix::from_fn(w, w, |i, j| {
+            self.gram[(index(i), index(j))] / (scales[i] * scales[j])
+        })
+    }
+}
+
+/// Residual sum of squares (scaled units) of every nested order `p = 1..=layout.p`
+/// (index `p - 1`) from a Cholesky elimination of the scaled Gram matrix, regressors in
+/// order. `None` if a pivot falls below `PIVOT_LIMIT` of its column's own sum of squares:
+/// the regression is too ill-conditioned for the normal equations.
+pub(crate) fn nested_rss(gram: &DMatrix<f64>, layout: &Layout) -> Option<Vec<f64>> {
+    let ncols = layout.columns(layout.p);
+    let w = gram.nrows();
+    let mut a = gram.clone();
+    let mut rss = Vec::with_capacity(layout.p);
+    let trace = |a: &DMatrix<f64>| (ncols..w).map(|i| a[(i, i)]).sum::<f64>();
+    for k in 0..ncols {
+        let d = a[(k, k)];
+        if !(d.is_finite() && d > super::PIVOT_LIMIT * gram[(k, k)]) {
+            return None;
+        }
+        for j in k + 1..w {
+            let f = a[(j, k)] / d;
+            if f == 0.0 {
+                continue;
+            }
+            for i in j..w {
+                a[(i, j)] -= f * a[(i, k)];
+            }
+        }
+        if k + 1 > layout.columns(0) && (k + 1 - layout.columns(0)) % (layout.r + layout.m) == 0 {
+            rss.push(trace(&a));
+        }
+    }
+    debug_assert_eq!(rss.len(), layout.p);
+    Some(rss)
+}
