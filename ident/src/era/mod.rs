@@ -256,13 +256,9 @@ impl EraParams {
             h
         };
         let h0 = hankel(0);
-        let hankel_svd = linalg::thin_svd(&h0)?;
-        let (factored_svd, shifted) = if shape.correlated {
+        let (hankel_singular_values, factored_svd, shifted) = if shape.correlated {
             let (xi, zeta) = (shape.xi, shape.zeta);
-            let h0t = h0.transpose();
-            let corr: Vec<DMatrix<f64>> = (0..=xi + zeta + 1)
-                .map(|k| if k == 0 { &h0 * &h0t } else { hankel(k) * &h0t })
-                .collect();
+            let corr = correlations(markov, &shape);
             let block = |k: usize| -> DMatrix<f64> {
                 let s = corr[0].nrows();
                 let mut out = DMatrix::zeros((xi + 1) * s, (zeta + 1) * s);
@@ -275,9 +271,25 @@ impl EraParams {
                 out
             };
             let big0 = block(0);
-            (linalg::thin_svd(&big0)?, block(1))
+            let h0_svd = linalg::thin_svd(&h0)?;
+            let stacked_v = |v: &DMatrix<f64>| -> DMatrix<f64> {
+                let rows = h0.nrows();
+                let mut out = DMatrix::zeros((xi + 1) * rows, v.ncols());
+                for i in 0..=xi {
+                    let hv = if i == 0 { &h0 * v } else { hankel(i) * v };
+                    out.view_mut((i * rows, 0), (rows, v.ncols()))
+                        .copy_from(&hv);
+                }
+                out
+            };
+            let factored = match compressed_svd(&corr, stacked_v, &h0_svd, zeta, &big0)? {
+                Some(svd) => svd,
+                None => linalg::thin_svd(&big0)?,
+            };
+            (h0_svd.s, factored, block(1))
         } else {
-            (hankel_svd.clone(), hankel(1))
+            let svd = linalg::thin_svd(&h0)?;
+            (svd.s.clone(), svd, hankel(1))
         };
         Ok(Decomposition {
             shape,
@@ -286,7 +298,7 @@ impl EraParams {
             inputs: r,
             d: y0.clone(),
             h0,
-            hankel_singular_values: hankel_svd.s,
+            hankel_singular_values,
             factored: factored_svd,
             shifted,
         })
@@ -309,6 +321,124 @@ impl EraParams {
         };
         dec.realize(n)
     }
+}
+
+/// The correlations `R(k) = H(k) H(0)^T`, `k = 0 ..= xi + zeta + 1`, from sums of
+/// products of Markov parameters: block `(i, l)` of `R(k)` is
+/// `S(c + k + i, c + l)` with `c = k0 + 1` and `S(a, b) = sum_{j < beta} Y_{a+j} Y_{b+j}^T`,
+/// and `S(a + 1, b + 1) = S(a, b) + Y_{a+beta} Y_{b+beta}^T - Y_a Y_b^T`, so each diagonal
+/// `a - b` costs one sum of `beta` products and two products per further block (instead of
+/// a product of `alpha m x beta r` matrices per `k`).
+fn correlations(markov: &[DMatrix<f64>], shape: &HankelShape) -> Vec<DMatrix<f64>> {
+    let (m, _) = markov[0].shape();
+    let (alpha, beta) = (shape.block_rows, shape.block_cols);
+    let shifts = shape.xi + shape.zeta + 1;
+    let c = shape.offset + 1;
+    let size = alpha * m;
+    let mut corr = vec![DMatrix::zeros(size, size); shifts + 1];
+    let outer = |a: &DMatrix<f64>, b: &DMatrix<f64>, acc: &mut DMatrix<f64>, sign: f64| {
+        acc.gemm(sign, a, &b.transpose(), 1.0);
+    };
+    // a - b = d for a = c + k + i (k + i in 0 ..= alpha - 1 + shifts) and b = c + l.
+    let rows_a = alpha + shifts;
+    for d in -(alpha as isize - 1)..rows_a as isize {
+        // First pair on the diagonal.
+        let (mut ia, mut ib) = if d >= 0 {
+            (d as usize, 0)
+        } else {
+            (0, (-d) as usize)
+        };
+        let mut acc = DMatrix::<f64>::zeros(m, m);
+        for j in 0..beta {
+            outer(&markov[c + ia + j], &markov[c + ib + j], &mut acc, 1.0);
+        }
+        loop {
+            // S(c + ia, c + ib) goes to every R(k) block (i, l) with k + i = ia, l = ib.
+            for k in 0..=shifts.min(ia) {
+                let i = ia - k;
+                if i < alpha {
+                    corr[k].view_mut((i * m, ib * m), (m, m)).copy_from(&acc);
+                }
+            }
+            if ia + 1 >= rows_a || ib + 1 >= alpha {
+                break;
+            }
+            outer(
+                &markov[c + ia + beta],
+                &markov[c + ib + beta],
+                &mut acc,
+                1.0,
+            );
+            outer(&markov[c + ia], &markov[c + ib], &mut acc, -1.0);
+            ia += 1;
+            ib += 1;
+        }
+    }
+    corr
+}
+
+/// Largest relative residual (Frobenius) of the correlation Hankel matrix outside the
+/// spaces spanned by its first block column and first block row for which
+/// [`compressed_svd`] is used: the Markov parameters of a finite-order system (those of an
+/// OKID observer) leave round-off there (1e-15); anything else takes the full SVD.
+const COMPRESSION_TOLERANCE: f64 = 1e-12;
+
+/// SVD of the correlation Hankel matrix `big0` in the spaces that contain it.
+///
+/// For Markov parameters of a system of order `N` (`N` = numerical rank of `H(0)`, at most
+/// `alpha m`), `H(k) = O A^k G` and `big0 = [H(i + j) H(0)^T]` has rank `N`. Its columns lie
+/// in the span of `[H(0); ...; H(xi)] V_N` (`V_N` the leading right singular vectors of
+/// `H(0)`; unlike the first block column of `big0`, whose weak directions are squared, this
+/// keeps every direction of `O` at the scale of the Hankel singular values) and its rows in
+/// that of its first block row. With orthonormal bases `Q_L` (`N` columns) and `Q_R`,
+/// `big0 = Q_L (Q_L^T big0 Q_R) Q_R^T`, and the SVD of the small core gives that of `big0`
+/// (singular values past `N` are zero). `None` if the residuals outside those spaces exceed
+/// [`COMPRESSION_TOLERANCE`] (then the caller factors `big0` itself).
+fn compressed_svd(
+    corr: &[DMatrix<f64>],
+    stacked_v: impl Fn(&DMatrix<f64>) -> DMatrix<f64>,
+    h0_svd: &ThinSvd,
+    zeta: usize,
+    big0: &DMatrix<f64>,
+) -> Result<Option<ThinSvd>, EraError> {
+    let s = corr[0].nrows();
+    let tol = f64::EPSILON * h0_svd.u.nrows().max(h0_svd.v.nrows()) as f64;
+    let rank = h0_svd.rank(tol);
+    if rank == 0 {
+        return Ok(None);
+    }
+    let basis_cols = stacked_v(&h0_svd.v.columns(0, rank).into_owned());
+    let mut row0t = DMatrix::zeros((zeta + 1) * s, s);
+    for j in 0..=zeta {
+        row0t
+            .view_mut((j * s, 0), (s, s))
+            .copy_from(&corr[j].transpose());
+    }
+    if linalg::first_non_finite(&basis_cols).is_some() || linalg::first_non_finite(&row0t).is_some()
+    {
+        return Ok(None);
+    }
+    let ql = basis_cols.qr().q();
+    let qr = row0t.qr().q();
+    let t = ql.tr_mul(big0);
+    let norm = big0.norm();
+    let col_residual = (big0 - &ql * &t).norm();
+    let core = &t * &qr;
+    let row_residual = (&t - &core * qr.transpose()).norm();
+    if !(col_residual <= COMPRESSION_TOLERANCE * norm
+        && row_residual <= COMPRESSION_TOLERANCE * norm)
+    {
+        return Ok(None);
+    }
+    let small = linalg::thin_svd(&core)?;
+    let full = big0.nrows().min(big0.ncols());
+    let mut values = DVector::zeros(full);
+    values.rows_mut(0, small.s.len()).copy_from(&small.s);
+    Ok(Some(ThinSvd {
+        u: ql * small.u,
+        s: values,
+        v: qr * small.v,
+    }))
 }
 
 /// Factored Hankel matrices, from which realizations of any order can be cut.

@@ -126,3 +126,118 @@ fn errors_are_typed() {
         Err(EraError::TooFewMarkov { available: 50, .. })
     ));
 }
+
+/// The correlations from sums of Markov products equal `H(k) H(0)^T` formed directly.
+#[test]
+fn correlations_from_markov_sums_match_hankel_products() {
+    let mut rng = ChaCha8Rng::seed_from_u64(41);
+    let sys = random_stable_system(&mut rng, 6, 2, 2, 0.95);
+    let markov = sys.markov(160);
+    let params = EraParams::default().offset(3);
+    let shape = params.shape(2, 2, markov.len()).unwrap();
+    let (m, r) = (2, 2);
+    let hankel = |k: usize| {
+        DMatrix::from_fn(shape.block_rows * m, shape.block_cols * r, |i, j| {
+            markov[shape.offset + 1 + k + i / m + j / r][(i % m, j % r)]
+        })
+    };
+    let h0t = hankel(0).transpose();
+    let corr = correlations(&markov, &shape);
+    for (k, got) in corr.iter().enumerate() {
+        let want = hankel(k) * &h0t;
+        // Sums of the same products in another order (running updates along the
+        // diagonals): round-off of sums of ~100 terms.
+        assert!((got - &want).amax() < 1e-12 * want.amax(), "R({k})");
+    }
+}
+
+/// The compressed SVD is used for Markov parameters of a finite-order system and gives
+/// the same leading singular values and subspaces as factoring the whole matrix; for
+/// parameters of no finite-order system it declines.
+#[test]
+fn compressed_svd_matches_the_full_svd_and_declines_full_rank_data() {
+    let mut rng = ChaCha8Rng::seed_from_u64(42);
+    let sys = random_stable_system(&mut rng, 8, 2, 1, 0.97);
+    let markov = sys.markov(400);
+    let params = EraParams::default().offset(2);
+    let shape = params.shape(2, 1, markov.len()).unwrap();
+    let (m, r) = (2, 1);
+    let hankel = |k: usize| {
+        DMatrix::from_fn(shape.block_rows * m, shape.block_cols * r, |i, j| {
+            markov[shape.offset + 1 + k + i / m + j / r][(i % m, j % r)]
+        })
+    };
+    let big = |corr: &[DMatrix<f64>]| {
+        let s = corr[0].nrows();
+        let mut out = DMatrix::zeros(3 * s, 3 * s);
+        for i in 0..3 {
+            for j in 0..3 {
+                out.view_mut((i * s, j * s), (s, s)).copy_from(&corr[i + j]);
+            }
+        }
+        out
+    };
+    let corr = correlations(&markov, &shape);
+    let big0 = big(&corr);
+    let h0 = hankel(0);
+    let stacked = |v: &DMatrix<f64>| {
+        let rows = h0.nrows();
+        let mut out = DMatrix::zeros(3 * rows, v.ncols());
+        for i in 0..3 {
+            out.view_mut((i * rows, 0), (rows, v.ncols()))
+                .copy_from(&(hankel(i) * v));
+        }
+        out
+    };
+    let h0_svd = linalg::thin_svd(&h0).unwrap();
+    let got = compressed_svd(&corr, stacked, &h0_svd, 2, &big0)
+        .unwrap()
+        .expect("an 8-state system compresses");
+    let want = linalg::thin_svd(&big0).unwrap();
+    let n = 8;
+    for i in 0..n {
+        // Singular values of the same matrix by two exact factorizations: round-off
+        // relative to the largest (the ratio s_8 / s_1 is ~1e-6 here).
+        assert!(
+            (got.s[i] - want.s[i]).abs() < 1e-12 * want.s[0],
+            "s{i}: {} {}",
+            got.s[i],
+            want.s[i]
+        );
+    }
+    assert!(got.s.iter().skip(n).all(|&x| x < 1e-12 * want.s[0]));
+    // Same leading left subspace: the projector difference is at round-off over the gap.
+    let pu = |u: &DMatrix<f64>| {
+        let un = u.columns(0, n);
+        &un * un.transpose()
+    };
+    assert!((pu(&got.u) - pu(&want.u)).amax() < 1e-8);
+
+    // Markov parameters of no finite-order system: the residual test refuses.
+    let noise: Vec<DMatrix<f64>> = (0..400)
+        .map(|_| DMatrix::from_fn(2, 1, |_, _| crate::testutil::normal(&mut rng)))
+        .collect();
+    let corr = correlations(&noise, &shape);
+    let big0 = big(&corr);
+    let hankel = |k: usize| {
+        DMatrix::from_fn(shape.block_rows * m, shape.block_cols * r, |i, j| {
+            noise[shape.offset + 1 + k + i / m + j / r][(i % m, j % r)]
+        })
+    };
+    let h0 = hankel(0);
+    let stacked = |v: &DMatrix<f64>| {
+        let rows = h0.nrows();
+        let mut out = DMatrix::zeros(3 * rows, v.ncols());
+        for i in 0..3 {
+            out.view_mut((i * rows, 0), (rows, v.ncols()))
+                .copy_from(&(hankel(i) * v));
+        }
+        out
+    };
+    let h0_svd = linalg::thin_svd(&h0).unwrap();
+    assert!(
+        compressed_svd(&corr, stacked, &h0_svd, 2, &big0)
+            .unwrap()
+            .is_none()
+    );
+}

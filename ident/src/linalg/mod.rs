@@ -297,6 +297,29 @@ pub fn thin_svd(m: &DMatrix<f64>) -> Result<ThinSvd, LinalgError> {
     })
 }
 
+/// Singular values of `m`, descending (no singular vectors: a fraction of the cost of
+/// [`thin_svd`]).
+pub fn singular_values(m: &DMatrix<f64>) -> Result<DVector<f64>, LinalgError> {
+    ensure_finite(m, "matrix")?;
+    let (rows, cols) = m.shape();
+    if rows == 0 || cols == 0 {
+        return Ok(DVector::zeros(rows.min(cols)));
+    }
+    let svd = SVD::try_new(
+        m.clone(),
+        false,
+        false,
+        f64::EPSILON,
+        iteration_budget(rows.max(cols)) * 10,
+    )
+    .ok_or(LinalgError::NoConvergence {
+        algorithm: "singular value decomposition",
+        rows,
+        cols,
+    })?;
+    Ok(svd.singular_values)
+}
+
 /// Solution of `min ||A X - B||_F` keeping the singular values of `A` above `rcond * s_max`.
 /// Returns the solution and the number of singular values kept.
 pub fn lstsq_truncated(svd: &ThinSvd, b: &DMatrix<f64>, rcond: f64) -> (DMatrix<f64>, usize) {

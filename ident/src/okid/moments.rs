@@ -50,23 +50,37 @@ fn column(layout: &Layout, j: usize) -> (usize, isize) {
     }
 }
 
-/// Dot product with eight independent partial sums (vectorizes).
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let b = &b[..a.len()];
-    let mut acc = [0.0f64; 8];
-    let ca = a.chunks_exact(8);
-    let cb = b.chunks_exact(8);
-    let (ra, rb) = (ca.remainder(), cb.remainder());
-    for (x, y) in ca.zip(cb) {
-        for j in 0..8 {
-            acc[j] += x[j] * y[j];
+/// Lags computed together by [`dots`].
+const LAGS: usize = 4;
+
+/// `sum_k a[k] b[k + j]` for `j = 0 .. LAGS` (`b` at least `a.len() + LAGS - 1` long): each
+/// sample of `a` is loaded once for four lags, two samples at a time (independent sums).
+fn dots(a: &[f64], b: &[f64]) -> [f64; LAGS] {
+    let n = a.len();
+    let b = &b[..n + LAGS - 1];
+    let mut even = [0.0f64; LAGS];
+    let mut odd = [0.0f64; LAGS];
+    let pairs = n / 2;
+    for p in 0..pairs {
+        let k = 2 * p;
+        let (x0, x1) = (a[k], a[k + 1]);
+        let w: &[f64; LAGS + 1] = b[k..k + LAGS + 1].try_into().expect("window");
+        for j in 0..LAGS {
+            even[j] += x0 * w[j];
+            odd[j] += x1 * w[j + 1];
         }
     }
-    let mut s = ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
-    for (x, y) in ra.iter().zip(rb) {
-        s += x * y;
+    if n % 2 == 1 {
+        let k = n - 1;
+        for j in 0..LAGS {
+            even[j] += a[k] * b[k + j];
+        }
     }
-    s
+    let mut out = [0.0; LAGS];
+    for j in 0..LAGS {
+        out[j] = even[j] + odd[j];
+    }
+    out
 }
 
 impl Moments {
@@ -137,25 +151,30 @@ impl Moments {
         let reach = |b: usize| if b < r { p + q } else { p };
         let stride = dmax + 1;
         let mut corr = vec![0.0; nch * nch * stride];
-        let mut bufs = vec![vec![0.0; BLOCK + dmax]; nch];
+        // Samples past the record's end read as zero, so every lag sums over the whole
+        // block; the margin covers the largest lag rounded up to whole groups of lags.
+        let margin = dmax.div_ceil(LAGS) * LAGS + LAGS;
+        let mut bufs = vec![vec![0.0; BLOCK + margin]; nch];
         let mut k0 = 0;
         while k0 < len {
             let k1 = (k0 + BLOCK).min(len);
-            let end = (k1 + dmax).min(len);
+            let end = (k1 + margin).min(len);
             for (ch, buf) in bufs.iter_mut().enumerate() {
-                for (j, v) in buf[..end - k0].iter_mut().enumerate() {
-                    *v = x(ch, k0 + j);
+                for (j, v) in buf.iter_mut().enumerate() {
+                    *v = if k0 + j < end { x(ch, k0 + j) } else { 0.0 };
                 }
             }
+            let n = k1 - k0;
             for a in 0..nch {
                 for b in 0..nch {
-                    for d in 0..=reach(b) {
-                        let stop = k1.min(len.saturating_sub(d));
-                        if stop <= k0 {
-                            continue;
+                    let base = (a * nch + b) * stride;
+                    for d0 in (0..=reach(b)).step_by(LAGS) {
+                        let sums = dots(&bufs[a][..n], &bufs[b][d0..]);
+                        for (j, v) in sums.iter().enumerate() {
+                            if d0 + j <= reach(b) {
+                                corr[base + d0 + j] += v;
+                            }
                         }
-                        let n = stop - k0;
-                        corr[(a * nch + b) * stride + d] += dot(&bufs[a][..n], &bufs[b][d..d + n]);
                     }
                 }
             }
