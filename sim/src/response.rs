@@ -212,35 +212,57 @@ impl AnalyzerEngine {
         // Internal samples s_i = C_out z_i on [i_a, i_stop].
         let mut s = DMatrix::zeros(self.n_out, count);
         let mut z = self.advance(&self.initial_state(p), p, p.start_s, i_a as f64 * ti);
+        // Steps inside and after the pulse go through preallocated buffers (the same
+        // products as `step`, so the same numbers); only the step across the pulse end
+        // allocates.
+        let mut next = z.clone();
+        let mut y = DVector::zeros(self.n_out);
         let mut z_closed = None;
         for (k, i) in (i_a..=i_stop).enumerate() {
-            s.set_column(k, &(&self.c_out * &z));
+            self.c_out.mul_to(&z, &mut y);
+            s.set_column(k, &y);
             if i == i_closed {
                 z_closed = Some(z.clone());
             }
             if i < i_stop {
-                z = self.step(&z, p, i, i_e);
+                if i + 1 < i_e {
+                    self.phi_on.mul_to(&z, &mut next);
+                    std::mem::swap(&mut z, &mut next);
+                } else if i >= i_e {
+                    self.phi_off.mul_to(&z, &mut next);
+                    std::mem::swap(&mut z, &mut next);
+                } else {
+                    z = self.step(&z, p, i, i_e);
+                }
             }
         }
+        // Each channel's internal samples contiguous; the FIR sums run in the same order.
+        let rows: Vec<Vec<f64>> = (0..self.n_out)
+            .map(|ch| s.row(ch).iter().copied().collect())
+            .collect();
         for n in n_first..n_explicit_end {
             let lo = (n * d - l).max(i_a);
             let hi = n * d + l;
-            for ch in 0..self.n_out {
+            let taps = &self.taps[(lo - (n * d - l)) as usize..=(hi - (n * d - l)) as usize];
+            let (from, to) = ((lo - i_a) as usize, (hi - i_a) as usize);
+            for (ch, row) in rows.iter().enumerate() {
                 let mut acc = 0.0;
-                for i in lo..=hi {
-                    acc += self.taps[(i - (n * d - l)) as usize] * s[(ch, (i - i_a) as usize)];
+                for (t, x) in taps.iter().zip(&row[from..=to]) {
+                    acc += t * x;
                 }
                 out[ch][n as usize] += acc;
             }
         }
         if n_closed < n_total {
             let mut z = z_closed.expect("closed-form start lies in the explicit range");
+            let mut next = z.clone();
             for n in n_closed..n_total {
-                let y = &self.g * &z;
+                self.g.mul_to(&z, &mut y);
                 for ch in 0..self.n_out {
                     out[ch][n as usize] += y[ch];
                 }
-                z = &self.phi_off_analysis * z;
+                self.phi_off_analysis.mul_to(&z, &mut next);
+                std::mem::swap(&mut z, &mut next);
             }
         }
     }
