@@ -209,7 +209,7 @@ fn compressed_svd_matches_the_full_svd_and_declines_full_rank_data() {
     // Same leading left subspace: the projector difference is at round-off over the gap.
     let pu = |u: &DMatrix<f64>| {
         let un = u.columns(0, n);
-        &un * un.transpose()
+        un * un.transpose()
     };
     assert!((pu(&got.u) - pu(&want.u)).amax() < 1e-8);
 

@@ -280,7 +280,9 @@ pub(crate) fn nested_rss(gram: &DMatrix<f64>, layout: &Layout) -> Option<Vec<f64
                 a[(i, j)] -= f * a[(i, k)];
             }
         }
-        if k + 1 > layout.columns(0) && (k + 1 - layout.columns(0)) % (layout.r + layout.m) == 0 {
+        if k + 1 > layout.columns(0)
+            && (k + 1 - layout.columns(0)).is_multiple_of(layout.r + layout.m)
+        {
             rss.push(trace(&a));
         }
     }
