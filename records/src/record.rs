@@ -23,6 +23,50 @@ pub struct Channel {
     pub id_line: Option<String>,
     /// Samples; every channel of a record has the same number.
     pub values: Vec<f64>,
+    /// Where each sample was written in a text file (for messages that
+    /// name a line); `None` for binary files and records built in memory.
+    pub lines: Option<SampleLines>,
+}
+
+/// The text lines holding a channel's samples, so that a check can name the
+/// line of a suspicious sample.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum SampleLines {
+    /// One sample per line: sample `i` is on line `first_line + i` (CSV).
+    Rows {
+        /// 1-based line of sample 0.
+        first_line: usize,
+    },
+    /// Several values per line (UFF58 ASCII): `starts[k] = (v, line)` says
+    /// that value `v` of the data block is the first one on `line`. Sample
+    /// `i` is value `stride * i + offset` (stride 2, offset 1 for (x, y)
+    /// pairs of uneven abscissae; stride 1, offset 0 otherwise).
+    Values {
+        /// `(first value index, 1-based line)`, ascending.
+        starts: Vec<(usize, usize)>,
+        /// Values per sample.
+        stride: usize,
+        /// Position of the sample's value within its group.
+        offset: usize,
+    },
+}
+
+impl SampleLines {
+    /// The 1-based line holding sample `i`.
+    pub fn line_of(&self, i: usize) -> Option<usize> {
+        match self {
+            SampleLines::Rows { first_line } => Some(first_line + i),
+            SampleLines::Values {
+                starts,
+                stride,
+                offset,
+            } => {
+                let v = stride * i + offset;
+                let k = starts.partition_point(|&(first, _)| first <= v);
+                k.checked_sub(1).map(|k| starts[k].1)
+            }
+        }
+    }
 }
 
 /// File layout a record was read from.
