@@ -194,7 +194,7 @@ pub struct ReportArgs {
 
 #[derive(Debug, Args)]
 pub struct SweepArgs {
-    /// Scenario file (TOML); its [sweep] table gives the defaults
+    /// Scenario file (TOML); its `[sweep]` table gives the defaults
     pub scenario: PathBuf,
     /// Output directory: trials.csv, summary.json, sweep.json
     #[arg(long)]

@@ -1046,7 +1046,8 @@ pub fn parse_uff58(
     })
 }
 
-/// How [`super::write_uff58_as`] encodes the values.
+/// How [`write_uff58`](crate::write_uff58) and the [`Uff58`](crate::Uff58)
+/// format encode the values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Uff58Encoding {
     /// ASCII as the format prescribes: real double, 4E20.12 per line.
