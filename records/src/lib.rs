@@ -1,4 +1,4 @@
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 //! Record files of vibration tests: sampled force and acceleration channels
 //! as modal analyzers export them, channel selection into the identifier's
 //! [`Campaign`](ident::Campaign), and the quality checks that judge records

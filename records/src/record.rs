@@ -74,9 +74,12 @@ impl SampleLines {
 pub enum Format {
     /// Delimited text; `delimiter` is `b','`, `b';'` or `b'\t'`.
     Csv {
+        /// The field separator.
         delimiter: u8,
     },
+    /// UFF dataset 58, ASCII.
     Uff58Ascii,
+    /// UFF dataset 58, binary (`58b`).
     Uff58Binary,
 }
 
@@ -84,12 +87,15 @@ pub enum Format {
 /// taken at `start_s + i * dt_s`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RecordFile {
+    /// The file read (or to be written).
     pub path: PathBuf,
+    /// The layout it was read from.
     pub format: Format,
     /// Sampling interval in seconds (finite, positive).
     pub dt_s: f64,
     /// Time of the first sample in seconds.
     pub start_s: f64,
+    /// The channels, in file order.
     pub channels: Vec<Channel>,
 }
 
@@ -102,6 +108,7 @@ pub struct ReadOptions {
 }
 
 impl ReadOptions {
+    /// Options with a sampling rate for files without a time axis.
     pub fn with_fs_hz(fs_hz: f64) -> Self {
         ReadOptions { fs_hz: Some(fs_hz) }
     }
@@ -141,10 +148,12 @@ impl RecordFile {
         self.channels.first().map_or(0, |c| c.values.len())
     }
 
+    /// Whether the record has no samples.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
 
+    /// Sampling rate, Hz.
     pub fn fs_hz(&self) -> f64 {
         1.0 / self.dt_s
     }
