@@ -129,6 +129,12 @@ pub struct IdentifyArgs {
     /// OKID observer order (default: automatic, BIC)
     #[arg(long)]
     pub observer_order: Option<usize>,
+    /// The model's modes, one frequency per output in Hz (e.g. 2.7,9.2): the structural modes nearest to them form M, K and R, the others are reported as out-of-model modes
+    #[arg(long, conflicts_with = "band")]
+    pub modes: Option<String>,
+    /// Only structural modes inside LOW:HIGH Hz form the model (e.g. 1:12); with more inside than outputs the most nearly second-order subset is used
+    #[arg(long)]
+    pub band: Option<String>,
     /// Intersample assumption: `bandlimited` for analyzer records (impulse invariance), `zoh` for inputs held over each sample (the paper's assumption)
     #[arg(long, default_value_t = Intersample::Bandlimited, value_parser = intersample_parser())]
     pub intersample: Intersample,

@@ -270,6 +270,12 @@ pub struct IdentifyReport {
     /// Files of the hits left out: inconsistent ones, and with
     /// `--drop-bad-hits` those failing a quality check.
     pub dropped_hits: Vec<String>,
+    /// How the modes of the model were chosen (`all-structural`,
+    /// `second-order`, `significance`, `band`, `near`).
+    pub mode_selection: ident::SelectionRule,
+    /// Structural modes the model does not use (torsional, out-of-plane or
+    /// local modes), as in `modes`.
+    pub out_of_model_modes: Vec<ModeReport>,
     /// Positions (0-based) of the dropped hits, for the hit table (files may
     /// repeat).
     #[serde(skip)]
@@ -311,6 +317,11 @@ impl IdentifyReport {
                 structural: m.structural,
                 used: r.mkr_modes.contains(&i),
             })
+            .collect::<Vec<ModeReport>>();
+        let out_of_model_modes = modes
+            .iter()
+            .filter(|m| m.structural && !m.used)
+            .cloned()
             .collect();
         IdentifyReport {
             frameid_version: env!("CARGO_PKG_VERSION").into(),
@@ -336,6 +347,8 @@ impl IdentifyReport {
             consistency_notes: Vec::new(),
             dropped_hits: Vec::new(),
             dropped_positions: Vec::new(),
+            mode_selection: r.mode_selection,
+            out_of_model_modes,
             uncertainty: None,
             uncertainty_skipped: None,
             mkr_modes: r.mkr_modes.clone(),

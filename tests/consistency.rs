@@ -26,7 +26,10 @@ fn clean_campaign(dir: &Path) -> Vec<PathBuf> {
         "--out",
         s(&out),
     ]);
-    hit_files(&out, "csv").into_iter().map(PathBuf::from).collect()
+    hit_files(&out, "csv")
+        .into_iter()
+        .map(PathBuf::from)
+        .collect()
 }
 
 /// A copy of `from` at `to` with column `col` (0 = time) of every data row
@@ -68,8 +71,9 @@ fn check_dropped(clean: &[PathBuf], bad: &Path, kind: &str, channel: Option<&str
         assert_eq!(f["record"], 2);
     }
     assert!(
-        flags.iter().any(|f| f["kind"] == kind
-            && channel.is_none_or(|c| f["channel"] == c)),
+        flags
+            .iter()
+            .any(|f| f["kind"] == kind && channel.is_none_or(|c| f["channel"] == c)),
         "{kind} on {channel:?}: {flags:#?}"
     );
     assert_eq!(v["dropped_hits"], serde_json::json!([s(bad)]));
@@ -97,7 +101,10 @@ fn check_dropped(clean: &[PathBuf], bad: &Path, kind: &str, channel: Option<&str
     let (code, out, err) = run(&args);
     assert_eq!(code, 2, "{err}");
     assert!(out.is_empty(), "{out}");
-    assert!(err.contains("--strict: 1 of 6 hits are inconsistent"), "{err}");
+    assert!(
+        err.contains("--strict: 1 of 6 hits are inconsistent"),
+        "{err}"
+    );
     let named = match channel {
         Some(c) => format!("{}: channel {c}: ", s(bad)),
         None => format!("{}: ", s(bad)),
@@ -124,20 +131,38 @@ fn dead_copied_spiked_and_mis_gained_hits_are_dropped_or_refused() {
         .map(|l| l.split(',').nth(1).unwrap().to_string())
         .collect();
     let copied = edited(hit3, &bad("copied.csv"), 2, |row, _| force[row].clone());
-    check_dropped(&clean, &copied, "copied-channel", Some("acc1"), "equals force");
+    check_dropped(
+        &clean,
+        &copied,
+        "copied-channel",
+        Some("acc1"),
+        "equals force",
+    );
 
     // One sample of 1e30 in acc1: named by its line (data row 700 is line
     // 702 after the header).
     let spiked = edited(hit3, &bad("spiked.csv"), 2, |row, v| {
         if row == 700 { "1e30".into() } else { v.into() }
     });
-    check_dropped(&clean, &spiked, "spike", Some("acc1"), "line 702 holds 1.000e30");
+    check_dropped(
+        &clean,
+        &spiked,
+        "spike",
+        Some("acc1"),
+        "line 702 holds 1.000e30",
+    );
 
     // One force sample of 1e12 N: a spike, not "not collocated".
     let force_spike = edited(hit3, &bad("force-spike.csv"), 1, |row, v| {
         if row == 900 { "1e12".into() } else { v.into() }
     });
-    check_dropped(&clean, &force_spike, "spike", Some("force"), "line 902 holds 1.000e12");
+    check_dropped(
+        &clean,
+        &force_spike,
+        "spike",
+        Some("force"),
+        "line 902 holds 1.000e12",
+    );
 
     // A 20 % gain error on acc2 in one hit: only the joint model sees it.
     let gained = edited(hit3, &bad("gain.csv"), 3, |_, v| {

@@ -95,7 +95,10 @@ pub use mkr::{CollocatedPair, Mkr, MkrError, MkrParams, PolarityPolicy};
 pub use modal::{Indicators, Intersample, ModalModel, ModalParams, Mode, StructuralRule};
 pub use okid::{ObserverOrder, Okid, OkidError, OkidParams};
 
-pub use pipeline::{Error, Identification, Identifier, ValidIdentifier, Warning};
+pub use pipeline::{
+    Error, Identification, Identifier, MAX_MODE_SUBSETS, ModeSelection, SelectionRule,
+    ValidIdentifier, Warning, shear_frame_defect,
+};
 pub use rayleigh::{Rayleigh, RayleighError};
 pub use record::{Channel, DataError, Record};
 pub use refine::{

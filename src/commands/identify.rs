@@ -47,6 +47,41 @@ fn parse_collocated(text: &str, outputs: &[String], inputs: &[String]) -> Result
     Ok((find("output", o, outputs)?, find("input", i, inputs)?))
 }
 
+/// `--modes F1,F2,...` or `--band LOW:HIGH` (Hz) as a mode selection.
+fn mode_selection(args: &IdentifyArgs) -> Result<ident::ModeSelection> {
+    let number = |flag: &str, t: &str| -> Result<f64> {
+        let v: f64 = t
+            .trim()
+            .parse()
+            .map_err(|_| anyhow!("{flag}: '{}' is not a number (Hz)", t.trim()))?;
+        if !(v.is_finite() && v >= 0.0) {
+            bail!("{flag}: {v} is not a frequency in Hz (finite, not negative)");
+        }
+        Ok(v)
+    };
+    if let Some(list) = &args.modes {
+        let frequencies_hz = list
+            .split(',')
+            .map(|t| number("--modes", t))
+            .collect::<Result<Vec<f64>>>()?;
+        if let Some(f) = frequencies_hz.iter().find(|f| **f == 0.0) {
+            bail!("--modes: {f} Hz is not a natural frequency");
+        }
+        return Ok(ident::ModeSelection::Near { frequencies_hz });
+    }
+    if let Some(band) = &args.band {
+        let (lo, hi) = band
+            .split_once(':')
+            .ok_or_else(|| anyhow!("--band: expected LOW:HIGH in Hz (e.g. 1:12), got '{band}'"))?;
+        let (low_hz, high_hz) = (number("--band", lo)?, number("--band", hi)?);
+        if low_hz >= high_hz {
+            bail!("--band: the low edge {low_hz} Hz must be below the high edge {high_hz} Hz");
+        }
+        return Ok(ident::ModeSelection::Band { low_hz, high_hz });
+    }
+    Ok(ident::ModeSelection::Auto)
+}
+
 /// Checks the numeric flags before any file is read, so that an error
 /// names the flag.
 fn check_flags(args: &IdentifyArgs) -> Result<()> {
@@ -64,6 +99,7 @@ fn check_flags(args: &IdentifyArgs) -> Result<()> {
 /// Runs the command, writing the result to `out`.
 pub fn run(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
     check_flags(args)?;
+    let modes = mode_selection(args)?;
     let report = match &args.realization {
         Some(path) => {
             let (realization, names) = records::realization::read_realization(path)?;
@@ -77,6 +113,7 @@ pub fn run(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
                 args.order,
                 args.observer_order,
             )
+            .mode_selection(modes)
             .from_state_space(&realization)
             .with_context(|| path.display().to_string())?;
             let source = Source {
@@ -94,7 +131,7 @@ pub fn run(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
             };
             IdentifyReport::new(&result, source)
         }
-        None => identify_records(args)?,
+        None => identify_records(args, modes)?,
     };
     let text = if args.json {
         let mut text = serde_json::to_string_pretty(&report)?;
@@ -108,7 +145,7 @@ pub fn run(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
 }
 
 /// Reads the record files, selects the channels and runs the analysis.
-fn identify_records(args: &IdentifyArgs) -> Result<IdentifyReport> {
+fn identify_records(args: &IdentifyArgs, modes: ident::ModeSelection) -> Result<IdentifyReport> {
     if args.files.is_empty() {
         bail!("no record files given");
     }
@@ -135,7 +172,8 @@ fn identify_records(args: &IdentifyArgs) -> Result<IdentifyReport> {
             collocated,
             args.order,
             args.observer_order,
-        ),
+        )
+        .mode_selection(modes),
         screening: if args.strict {
             Screening::Strict
         } else if args.drop_bad_hits {

@@ -294,8 +294,7 @@ pub fn analyze_located(
         Err(e) => {
             // A hit that breaks the joint identification on its own is
             // inconsistent with the others: find it, or refuse naming none.
-            let Some((bad, r)) =
-                without_breaking_hit(campaign, &keep, id, &settings.consistency)
+            let Some((bad, r)) = without_breaking_hit(campaign, &keep, id, &settings.consistency)
             else {
                 return Err(identification_error(e, &c, id));
             };
@@ -368,7 +367,9 @@ pub fn analyze_located(
     }
     consistency.notes.extend(residual_notes);
     let dropped: Vec<usize> = (0..campaign.len()).filter(|i| !keep.contains(i)).collect();
-    check_modes_against_outputs(&result, &c)?;
+    if settings.screening == Screening::Strict {
+        check_modes_against_outputs(&result, &c)?;
+    }
     let (uncertainty, uncertainty_skipped) = if settings.uncertainty {
         let jk = match loo {
             Some(results) => ident::jackknife_from(&c, &result, results),
@@ -422,7 +423,37 @@ pub fn analyze_located(
             reasons.join("; ")
         ));
     }
-    warnings.extend(result.warnings.iter().map(|w| ident_warning(w, &c)));
+    warnings.extend(
+        result
+            .warnings
+            .iter()
+            .filter(|w| !matches!(w, ident::Warning::ExtraStructuralModes { .. }))
+            .map(|w| ident_warning(w, &c)),
+    );
+    let outside = out_of_model_modes(&result);
+    if !outside.is_empty() {
+        let describe = |j: &usize| {
+            let md = &result.modes[*j];
+            format!(
+                "{} Hz (damping {} %)",
+                sig(md.frequency_hz, 4),
+                sig(100.0 * md.damping_ratio, 2)
+            )
+        };
+        warnings.push(format!(
+            "{} structural mode(s) outside the {}-DOF model: {}; M, K and R use {} Hz, chosen as {}. Name the model's modes with --modes or --band if the choice is wrong (--strict refuses instead)",
+            outside.len(),
+            c.outputs.len(),
+            outside.iter().map(describe).collect::<Vec<_>>().join(", "),
+            result
+                .frequencies_hz
+                .iter()
+                .map(|f| sig(*f, 4))
+                .collect::<Vec<_>>()
+                .join(", "),
+            result.mode_selection.describe()
+        ));
+    }
     if let Some(u) = &uncertainty {
         for f in &u.failed {
             warnings.push(format!(
@@ -720,7 +751,17 @@ fn check_orders(c: &Campaign, id: &Identifier) -> Result<(), AnalysisError> {
     Ok(())
 }
 
-/// The records showing more structural modes than there are outputs means
+/// Indices into `r.modes` of the structural modes the model does not use
+/// (torsional, out-of-plane or local modes a shear model lacks, or a mode of
+/// a floor without an accelerometer).
+pub fn out_of_model_modes(r: &Identification) -> Vec<usize> {
+    (0..r.modes.len())
+        .filter(|j| r.modes[*j].structural && !r.mkr_modes.contains(j))
+        .collect()
+}
+
+/// Under `--strict`: the records showing more structural modes than there
+/// are outputs means
 /// fewer outputs than degrees of freedom: MKR would build a model with the
 /// wrong number of floors.
 fn check_modes_against_outputs(r: &Identification, c: &Campaign) -> Result<(), AnalysisError> {

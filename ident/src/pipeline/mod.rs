@@ -55,6 +55,79 @@ use std::fmt;
 /// Consistency `||W W^T|| / ||W Lc W^T||` above which a warning is issued.
 pub const CONSISTENCY_WARNING: f64 = 0.1;
 
+/// Which structural modes form the n-DOF model (n = outputs) when the
+/// realization holds more structural modes than that: real structures have
+/// torsional, out-of-plane and local modes in the band that a shear model
+/// lacks. The structural modes left out are reported as out-of-model modes
+/// ([`Identification::out_of_model_modes`]); none is ever refused for being
+/// there.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case", tag = "kind")]
+pub enum ModeSelection {
+    /// The n structural modes whose MKR model is closest to a shear frame:
+    /// M and K positive definite, adjacent floors coupled by springs
+    /// (negative `K[i, i+1]`), and the smallest
+    /// [`shear_frame_defect`] (M's off-diagonal part over its diagonal plus
+    /// the row sums of K above the first floor over K: both 0 for a shear
+    /// frame with lumped masses). Second-order consistency cannot choose:
+    /// any n lightly damped modes with real shapes make a consistent n-DOF
+    /// second-order model, a torsional mode included; what they do not make
+    /// is a shear frame. With more than [`MAX_MODE_SUBSETS`] subsets, or no
+    /// admissible one, the most consistent and significant modes (largest
+    /// `cmi * msv_relative`) are kept.
+    #[default]
+    Auto,
+    /// The structural modes between `low_hz` and `high_hz` (inclusive);
+    /// more than n inside are chosen as by [`ModeSelection::Auto`].
+    Band {
+        /// Lower edge, Hz.
+        low_hz: f64,
+        /// Upper edge, Hz.
+        high_hz: f64,
+    },
+    /// The structural mode nearest to each of these frequencies (one per
+    /// output, Hz).
+    Near {
+        /// Approximate natural frequencies, Hz.
+        frequencies_hz: Vec<f64>,
+    },
+}
+
+/// Largest number of n-mode subsets [`ModeSelection::Auto`] compares (each
+/// costs one MKR fit of n modes, microseconds for a few DOFs).
+pub const MAX_MODE_SUBSETS: usize = 1000;
+
+/// How the modes used by MKR were chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SelectionRule {
+    /// As many structural modes as outputs: all of them.
+    AllStructural,
+    /// The subset whose M and K are closest to a shear frame's.
+    ShearFrame,
+    /// The most consistent and significant modes (`cmi * msv_relative`).
+    Significance,
+    /// The user's band (with one of the rules above inside it if needed).
+    Band,
+    /// The modes nearest the user's frequencies.
+    Near,
+}
+
+impl SelectionRule {
+    /// Short description, as in messages.
+    pub fn describe(self) -> &'static str {
+        match self {
+            SelectionRule::AllStructural => "every structural mode",
+            SelectionRule::ShearFrame => {
+                "the subset whose M and K are closest to a shear frame (diagonal M, each floor above the first held by its storey springs)"
+            }
+            SelectionRule::Significance => "the most consistent and significant modes (CMI x MSV)",
+            SelectionRule::Band => "the structural modes inside the band given",
+            SelectionRule::Near => "the structural modes nearest the frequencies given",
+        }
+    }
+}
+
 /// Identification parameters. `Identifier::default()` plus setters covers common use; the
 /// fields are public for configuration files. `None` means "default for the intersample
 /// assumption" (see the module docs).
@@ -88,6 +161,10 @@ pub struct Identifier {
     pub rule: StructuralRule,
     /// Number of degrees of freedom, if known (must equal the number of outputs).
     pub dofs: Option<usize>,
+    /// Which structural modes form the model when there are more than
+    /// outputs.
+    #[serde(default)]
+    pub modes: ModeSelection,
 }
 
 impl Default for Identifier {
@@ -107,6 +184,7 @@ impl Default for Identifier {
             polarity: PolarityPolicy::default(),
             rule: StructuralRule::default(),
             dofs: None,
+            modes: ModeSelection::Auto,
         }
     }
 }
@@ -191,6 +269,13 @@ impl Identifier {
         self
     }
 
+    /// Sets how the modes of the model are chosen among more structural
+    /// modes than outputs.
+    pub fn mode_selection(mut self, modes: ModeSelection) -> Self {
+        self.modes = modes;
+        self
+    }
+
     /// Validates the parameters and resolves the defaults.
     pub fn check(&self) -> Result<ValidIdentifier, Error> {
         let base = match self.intersample {
@@ -227,6 +312,33 @@ impl Identifier {
                 reason: "the number of degrees of freedom must be at least 1".into(),
             });
         }
+        match &self.modes {
+            ModeSelection::Auto => {}
+            ModeSelection::Band { low_hz, high_hz } => {
+                if !(low_hz.is_finite()
+                    && high_hz.is_finite()
+                    && 0.0 <= *low_hz
+                    && low_hz < high_hz)
+                {
+                    return Err(Error::InvalidParams {
+                        reason: format!(
+                            "mode band {low_hz}-{high_hz} Hz: needs 0 <= low < high, both finite"
+                        ),
+                    });
+                }
+            }
+            ModeSelection::Near { frequencies_hz } => {
+                if frequencies_hz.is_empty()
+                    || frequencies_hz.iter().any(|f| !(f.is_finite() && *f > 0.0))
+                {
+                    return Err(Error::InvalidParams {
+                        reason: format!(
+                            "mode frequencies {frequencies_hz:?} Hz: need one or more positive finite values"
+                        ),
+                    });
+                }
+            }
+        }
         Ok(ValidIdentifier {
             okid,
             era,
@@ -236,6 +348,7 @@ impl Identifier {
                 polarity: self.polarity,
             },
             dofs: self.dofs,
+            modes: self.modes.clone(),
         })
     }
 
@@ -277,9 +390,137 @@ pub struct ValidIdentifier {
     pub mkr: MkrParams,
     /// Expected number of DOFs.
     pub dofs: Option<usize>,
+    /// Mode selection among more structural modes than outputs.
+    pub modes: ModeSelection,
 }
 
 impl ValidIdentifier {
+    /// The modes for MKR (indices into `modal.modes`, ascending) and how
+    /// they were chosen (see [`ModeSelection`]).
+    fn select_modes(
+        &self,
+        modal: &ModalModel,
+        d: &DMatrix<f64>,
+        m: usize,
+    ) -> Result<(Vec<usize>, SelectionRule), Error> {
+        let structural = modal.structural();
+        let list = |idx: &[usize]| -> String {
+            idx.iter()
+                .map(|&j| format!("{:.4}", modal.modes[j].frequency_hz))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        match &self.modes {
+            ModeSelection::Auto => Ok(self.most_second_order(modal, &structural, d, m)),
+            ModeSelection::Band { low_hz, high_hz } => {
+                let inside: Vec<usize> = structural
+                    .iter()
+                    .copied()
+                    .filter(|&j| (*low_hz..=*high_hz).contains(&modal.modes[j].frequency_hz))
+                    .collect();
+                if inside.len() < m {
+                    return Err(Error::ModeSelection {
+                        reason: format!(
+                            "the band {low_hz}-{high_hz} Hz holds {} structural mode(s) ({} Hz) but the model of {m} outputs needs {m}; the structural modes are at {} Hz",
+                            inside.len(),
+                            list(&inside),
+                            list(&structural)
+                        ),
+                    });
+                }
+                let (sel, _) = self.most_second_order(modal, &inside, d, m);
+                Ok((sel, SelectionRule::Band))
+            }
+            ModeSelection::Near { frequencies_hz } => {
+                if frequencies_hz.len() != m {
+                    return Err(Error::ModeSelection {
+                        reason: format!(
+                            "{} mode frequencies given ({:?} Hz) but the model of {m} outputs needs {m}",
+                            frequencies_hz.len(),
+                            frequencies_hz
+                        ),
+                    });
+                }
+                if structural.len() < m {
+                    return Err(Error::ModeSelection {
+                        reason: format!(
+                            "only {} structural mode(s) identified ({} Hz), {m} asked for",
+                            structural.len(),
+                            list(&structural)
+                        ),
+                    });
+                }
+                // Closest pairs first (relative distance), each mode and
+                // each frequency used once.
+                let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+                for (t, f) in frequencies_hz.iter().enumerate() {
+                    for &j in &structural {
+                        pairs.push(((modal.modes[j].frequency_hz / f - 1.0).abs(), t, j));
+                    }
+                }
+                pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let (mut used_t, mut chosen) = (Vec::new(), Vec::new());
+                for (_, t, j) in pairs {
+                    if !used_t.contains(&t) && !chosen.contains(&j) {
+                        used_t.push(t);
+                        chosen.push(j);
+                    }
+                }
+                chosen.sort_unstable();
+                Ok((chosen, SelectionRule::Near))
+            }
+        }
+    }
+
+    /// `m` of the `candidates` (structural modes): all of them if there are
+    /// `m` or fewer, else the subset whose MKR model is closest to a shear
+    /// frame, else (more than [`MAX_MODE_SUBSETS`] subsets, or no subset
+    /// fits) the most consistent and significant ones.
+    fn most_second_order(
+        &self,
+        modal: &ModalModel,
+        candidates: &[usize],
+        d: &DMatrix<f64>,
+        m: usize,
+    ) -> (Vec<usize>, SelectionRule) {
+        if candidates.len() <= m {
+            return (candidates.to_vec(), SelectionRule::AllStructural);
+        }
+        let by_significance = || {
+            let score =
+                |j: usize| modal.modes[j].indicators.cmi * modal.modes[j].indicators.msv_relative;
+            let mut idx = candidates.to_vec();
+            idx.sort_by(|&a, &b| score(b).total_cmp(&score(a)));
+            idx.truncate(m);
+            idx.sort_unstable();
+            (idx, SelectionRule::Significance)
+        };
+        if binomial(candidates.len(), m) > MAX_MODE_SUBSETS {
+            return by_significance();
+        }
+        let mut best: Option<(f64, Vec<usize>)> = None;
+        let mut subset: Vec<usize> = (0..m).collect();
+        loop {
+            let chosen: Vec<Mode> = subset
+                .iter()
+                .map(|&i| modal.modes[candidates[i]].clone())
+                .collect();
+            if let Ok(fit) = self.mkr.fit(&chosen, d)
+                && let Some(defect) = shear_frame_defect(&fit.mass, &fit.stiffness)
+                && best.as_ref().is_none_or(|(c, _)| defect < *c)
+            {
+                best = Some((defect, subset.iter().map(|&i| candidates[i]).collect()));
+            }
+            if !next_subset(&mut subset, candidates.len()) {
+                break;
+            }
+        }
+        match best {
+            Some((_, idx)) => (idx, SelectionRule::ShearFrame),
+            None => by_significance(),
+        }
+    }
+
     fn check_dofs(&self, outputs: usize) -> Result<(), Error> {
         match self.dofs {
             Some(dofs) if dofs > outputs => Err(Error::OutputsFewerThanDofs { outputs, dofs }),
@@ -571,7 +812,7 @@ impl ValidIdentifier {
         mut warnings: Vec<Warning>,
     ) -> Result<Identification, Error> {
         let m = realization.outputs();
-        let selected = modal.select(m);
+        let (selected, mode_selection) = self.select_modes(&modal, &realization.d, m)?;
         let structural = modal.structural();
         if structural.len() > m {
             warnings.push(Warning::ExtraStructuralModes {
@@ -622,6 +863,7 @@ impl ValidIdentifier {
             modes: modal.modes,
             real_eigenvalues: modal.real_eigenvalues,
             mkr_modes: selected,
+            mode_selection,
             frequencies_hz,
             damping_ratios,
             mode_shapes,
@@ -730,6 +972,9 @@ pub struct Identification {
     pub real_eigenvalues: Vec<f64>,
     /// Indices into `modes` of the modes used by MKR and the Rayleigh fit.
     pub mkr_modes: Vec<usize>,
+    /// How those modes were chosen.
+    #[serde(default = "default_rule")]
+    pub mode_selection: SelectionRule,
     /// Natural frequencies (Hz) of the MKR modes.
     pub frequencies_hz: Vec<f64>,
     /// Damping ratios of the MKR modes.
@@ -922,6 +1167,13 @@ impl fmt::Display for Warning {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
+    /// The modes asked for (a band, or frequencies) cannot be chosen.
+    #[error("mode selection: {reason}")]
+    ModeSelection {
+        /// Why the modes asked for cannot be chosen, with the structural
+        /// modes found.
+        reason: String,
+    },
     /// Parameters out of range.
     #[error("invalid parameters: {reason}")]
     InvalidParams {
@@ -984,4 +1236,58 @@ impl Error {
             other => Error::Okid(other),
         }
     }
+}
+
+/// How far M and K (floors in order, the first on the ground) are from a
+/// shear frame with lumped masses: `||offdiag M||_F / ||diag M||_2` plus
+/// `||(K 1)[1..]||_2 / ||K||_F` (every floor above the first is held only by
+/// the storey springs to its neighbours, so its row of K sums to 0). `None`
+/// if M or K is not positive definite or two adjacent floors are coupled by
+/// a positive `K[i, i+1]` (no spring does that).
+pub fn shear_frame_defect(mass: &DMatrix<f64>, stiffness: &DMatrix<f64>) -> Option<f64> {
+    let n = mass.nrows();
+    if mass.clone().cholesky().is_none() || stiffness.clone().cholesky().is_none() {
+        return None;
+    }
+    if (0..n.saturating_sub(1)).any(|i| stiffness[(i, i + 1)] > 0.0) {
+        return None;
+    }
+    let diag = (0..n).map(|i| mass[(i, i)].powi(2)).sum::<f64>().sqrt();
+    let off = (0..n)
+        .flat_map(|i| (0..n).filter(move |&j| j != i).map(move |j| (i, j)))
+        .map(|(i, j)| mass[(i, j)].powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let rows = (1..n)
+        .map(|i| stiffness.row(i).sum().powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let defect = off / diag + rows / stiffness.norm();
+    defect.is_finite().then_some(defect)
+}
+
+/// `n choose k`, saturating.
+fn binomial(n: usize, k: usize) -> usize {
+    let k = k.min(n - k.min(n));
+    (0..k).fold(1usize, |acc, i| acc.saturating_mul(n - i) / (i + 1))
+}
+
+/// Advances `subset` (ascending indices below `n`) to the next
+/// combination in lexicographic order; false after the last.
+fn next_subset(subset: &mut [usize], n: usize) -> bool {
+    let k = subset.len();
+    for i in (0..k).rev() {
+        if subset[i] < n - k + i {
+            subset[i] += 1;
+            for j in i + 1..k {
+                subset[j] = subset[j - 1] + 1;
+            }
+            return true;
+        }
+    }
+    false
+}
+
+fn default_rule() -> SelectionRule {
+    SelectionRule::AllStructural
 }
