@@ -361,13 +361,27 @@ const FIXED_COLUMNS: [&str; 7] = [
 ];
 
 /// Writes `trials.csv`: one row per trial in canonical order; scores in
-/// shortest round-trip form (empty for failed trials).
+/// shortest round-trip form (empty for failed trials). The bytes are
+/// those of [`format_trials`].
 pub fn write_trials(
     path: &Path,
     plan: &Plan,
     keys: &[ScoreKey],
     rows: &[TrialRow],
 ) -> Result<(), StudyError> {
+    let bytes = format_trials(path, plan, keys, rows)?;
+    records::write_atomically(path, &bytes)?;
+    Ok(())
+}
+
+/// The contents of `trials.csv` for `rows`, in memory (the Python binding
+/// compares them byte for byte); `path` is named in messages only.
+pub fn format_trials(
+    path: &Path,
+    plan: &Plan,
+    keys: &[ScoreKey],
+    rows: &[TrialRow],
+) -> Result<Vec<u8>, StudyError> {
     let csv_error = |e: csv::Error| StudyError::bad_file(path, None, format!("cannot format: {e}"));
     let mut w = csv::Writer::from_writer(Vec::new());
     let header: Vec<String> = FIXED_COLUMNS
@@ -396,11 +410,8 @@ pub fn write_trials(
         }
         w.write_record(&rec).map_err(csv_error)?;
     }
-    let bytes = w
-        .into_inner()
-        .map_err(|e| StudyError::bad_file(path, None, format!("cannot format: {e}")))?;
-    records::write_atomically(path, &bytes)?;
-    Ok(())
+    w.into_inner()
+        .map_err(|e| StudyError::bad_file(path, None, format!("cannot format: {e}")))
 }
 
 /// Reads a `trials.csv` written for `plan`; checks header and keys.
@@ -410,7 +421,18 @@ pub fn read_trials(
     keys: &[ScoreKey],
 ) -> Result<Vec<TrialRow>, StudyError> {
     let bytes = std::fs::read(path).map_err(|e| StudyError::io(path, "read", e))?;
-    let mut r = csv::Reader::from_reader(bytes.as_slice());
+    parse_trials(&bytes, path, plan, keys)
+}
+
+/// Parses the contents of a `trials.csv` written for `plan` (see
+/// [`read_trials`]); `path` is named in messages only.
+pub fn parse_trials(
+    bytes: &[u8],
+    path: &Path,
+    plan: &Plan,
+    keys: &[ScoreKey],
+) -> Result<Vec<TrialRow>, StudyError> {
+    let mut r = csv::Reader::from_reader(bytes);
     let expected: Vec<String> = FIXED_COLUMNS
         .iter()
         .map(ToString::to_string)
@@ -714,31 +736,14 @@ pub fn merge(dirs: &[&Path], out: &Path) -> Result<Merged, StudyError> {
     }
     let truth = plan_truth(&first.plan)?;
     let keys = first.plan.score_keys();
-    let mut rows: BTreeMap<TrialKey, TrialRow> = BTreeMap::new();
-    for d in dirs {
-        for r in read_trials(&d.join("trials.csv"), &first.plan, &keys)? {
-            if rows.insert(r.key, r.clone()).is_some() {
-                return Err(merge_error(format!(
-                    "{}: trial {} at noise {} appears in more than one directory",
-                    d.display(),
-                    r.key.trial,
-                    first.plan.noise_levels[r.key.noise]
-                )));
-            }
-        }
-    }
-    if let Some(missing) = first.plan.keys().find(|k| !rows.contains_key(k)) {
-        return Err(merge_error(format!(
-            "merge: trial {} at noise {}{} is missing: are all shards given?",
-            missing.trial,
-            first.plan.noise_levels[missing.noise],
-            match first.plan.axis_label(missing.axis).as_str() {
-                "" => String::new(),
-                l => format!(", axis value {l}"),
-            }
-        )));
-    }
-    let rows: Vec<TrialRow> = rows.into_values().collect();
+    let parts = dirs
+        .iter()
+        .map(|d| {
+            read_trials(&d.join("trials.csv"), &first.plan, &keys)
+                .map(|rows| (d.display().to_string(), rows))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let rows = join_rows(&first.plan, parts)?;
     let manifest = Manifest {
         shard: None,
         ..first.clone()
@@ -754,6 +759,41 @@ pub fn merge(dirs: &[&Path], out: &Path) -> Result<Merged, StudyError> {
     )?;
     dir.commit()?;
     Ok(Merged { summary, warnings })
+}
+
+/// Joins the rows of the parts of a sweep of `plan` (each named, for
+/// messages, by its directory or shard) into every trial of the plan in
+/// canonical order; refuses a trial given twice or missing. [`merge`]
+/// uses it on directories, the Python binding on shards in memory.
+pub fn join_rows(
+    plan: &Plan,
+    parts: Vec<(String, Vec<TrialRow>)>,
+) -> Result<Vec<TrialRow>, StudyError> {
+    let merge_error = |problem: String| StudyError::Merge { problem };
+    let mut rows: BTreeMap<TrialKey, TrialRow> = BTreeMap::new();
+    for (name, part) in parts {
+        for r in part {
+            let key = r.key;
+            if rows.insert(key, r).is_some() {
+                return Err(merge_error(format!(
+                    "{name}: trial {} at noise {} appears in more than one directory",
+                    key.trial, plan.noise_levels[key.noise]
+                )));
+            }
+        }
+    }
+    if let Some(missing) = plan.keys().find(|k| !rows.contains_key(k)) {
+        return Err(merge_error(format!(
+            "merge: trial {} at noise {}{} is missing: are all shards given?",
+            missing.trial,
+            plan.noise_levels[missing.noise],
+            match plan.axis_label(missing.axis).as_str() {
+                "" => String::new(),
+                l => format!(", axis value {l}"),
+            }
+        )));
+    }
+    Ok(rows.into_values().collect())
 }
 
 /// What [`merge`] did.

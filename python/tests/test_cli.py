@@ -1,0 +1,150 @@
+"""The package agrees with the command line on the same records: the numbers
+of ``frameid identify --json`` (bit for bit: the same library code runs on
+the same samples, and the JSON numbers are shortest round-trip decimals),
+the files of ``frameid simulate`` and of ``frameid sweep`` (byte for byte)."""
+
+import filecmp
+import json
+
+import numpy as np
+import pytest
+
+import frameid
+from conftest import CASE1, CASE1_REALIZATION, REPO
+
+
+@pytest.fixture(scope="module")
+def records(tmp_path_factory):
+    """Paper case 1 written by the command line: 10 hits at 1 % noise."""
+    return tmp_path_factory.mktemp("cli") / "case1"
+
+
+def simulate_cli(cli, out, *flags):
+    code, stdout, stderr = cli("simulate", CASE1, "--out", out, "--noise", "0.01", "--seed", "7", *flags)
+    assert code == 0, stderr
+    return sorted(str(p) for p in out.glob("hit*.*") if p.suffix in (".csv", ".uff"))
+
+
+def identify_cli(cli, files, *flags):
+    code, stdout, stderr = cli("identify", *files, "--json", *flags)
+    assert code == 0, stderr
+    return json.loads(stdout)
+
+
+def same(array, rows):
+    np.testing.assert_array_equal(np.asarray(array), np.asarray(rows, dtype=float))
+
+
+def check_modes(res, doc):
+    assert len(res.modes) == len(doc["modes"])
+    for mode, m in zip(res.modes, doc["modes"]):
+        assert mode.frequency_hz == m["frequency_hz"]
+        assert mode.damping_ratio == m["damping_ratio"]
+        same(mode.mode_shape, [complex(re, im) for re, im in m["mode_shape"]])
+        for key in ("emac", "emac_output", "emac_input", "mpc", "msv", "cmi", "structural", "used"):
+            assert getattr(mode, key) == m[key], key
+
+
+def check_identification(res, doc):
+    for key in ("mass", "stiffness", "damping_mkr", "damping_rayleigh"):
+        same(getattr(res, key), doc[key])
+    check_modes(res, doc)
+    assert res.rayleigh_alpha == doc["rayleigh"]["alpha"]
+    assert res.rayleigh_beta == doc["rayleigh"]["beta"]
+    assert res.consistency == doc["consistency"]
+    assert res.model_order == doc["model_order"]
+    assert res.intersample == doc["intersample"]
+    assert res.polarity_flipped == doc["polarity_flipped"]
+    assert res.warnings == doc["warnings"]
+    assert res.observer == doc["observer"]
+    same(res.hankel_singular_values, doc["hankel_singular_values"])
+    src = doc["source"]
+    assert res.files == src["files"] and res.inputs == src["inputs"] and res.outputs == src["outputs"]
+    assert res.dt_s == src["dt_s"] and res.hits == src["hits"] and res.samples == src["samples"]
+    assert res.collocated == (src["collocated"]["output"], src["collocated"]["input"])
+    assert res.from_realization == src["realization"]
+
+
+def test_identify_agrees_with_the_cli(cli, records):
+    files = simulate_cli(cli, records)
+    doc = identify_cli(cli, files)
+    res = frameid.identify(frameid.read_records(files))
+    check_identification(res, doc)
+    assert res.hit_quality == doc["hit_quality"]
+    assert res.dropped_hits == doc["dropped_hits"]
+    assert res.uncertainty.to_dict() == doc["uncertainty"]
+    assert res.uncertainty_skipped == doc["uncertainty_skipped"]
+    same(res.uncertainty.mass_std, doc["uncertainty"]["mass"]["std"])
+    same(res.uncertainty.frequencies_hz_std, doc["uncertainty"]["frequencies_hz"]["std"])
+
+
+def test_identify_with_options_agrees_with_the_cli(cli, records):
+    files = sorted(str(p) for p in records.glob("hit*.csv"))
+    if not files:
+        files = simulate_cli(cli, records)
+    doc = identify_cli(
+        cli, files, "--outputs", "acc1,acc2", "--collocated", "acc1:force", "--intersample", "zoh",
+        "--no-uncertainty", "--refine", "--parametrization", "shear-frame",
+    )
+    camp = frameid.read_records(files, input="force", outputs=["acc1", "acc2"])
+    res = frameid.identify(
+        camp, collocated=("acc1", "force"), intersample="zoh", uncertainty=False, refine=True,
+        parametrization="shear-frame",
+    )
+    check_identification(res, doc)
+    assert res.uncertainty is None and doc["uncertainty"] is None
+    assert res.uncertainty_skipped == doc["uncertainty_skipped"]
+    ref, r = res.refined, doc["refined"]
+    for key in ("mass", "stiffness", "damping", "mass_std", "stiffness_std", "damping_std"):
+        same(getattr(ref, key), r[key])
+    same(ref.noise_outputs, r["noise_outputs"])
+    same(ref.noise_inputs, r["noise_inputs"])
+    assert (ref.iterations, ref.stop, ref.converged) == (r["iterations"], r["stop"], r["converged"])
+    assert (ref.initial_cost, ref.cost) == (r["initial_cost"], r["cost"])
+    for mode, m in zip(ref.modes, r["modes"], strict=True):
+        assert (mode.frequency_hz, mode.frequency_std_hz) == (m["frequency_hz"], m["frequency_std_hz"])
+        assert (mode.damping_ratio, mode.damping_ratio_std) == (m["damping_ratio"], m["damping_ratio_std"])
+        same(mode.mode_shape, [complex(re, im) for re, im in m["mode_shape"]])
+
+
+def test_identify_realization_agrees_with_the_cli(cli):
+    doc = identify_cli(cli, [], "--realization", CASE1_REALIZATION, "--intersample", "zoh")
+    res = frameid.identify_realization(CASE1_REALIZATION, intersample="zoh")
+    check_identification(res, doc)
+    # The paper's case 1 (eq. 37): m11 = 0.2913 kg from its realization.
+    assert res.mass[0, 0] == pytest.approx(0.2913, abs=1e-3)
+    assert res.realization["a"].shape == (4, 4) and res.hits == 0 and res.uncertainty is None
+
+
+def test_simulate_writes_what_the_cli_writes(cli, tmp_path):
+    for fmt in ("csv", "uff-binary"):
+        cli_dir, py_dir = tmp_path / f"cli-{fmt}", tmp_path / f"py-{fmt}"
+        simulate_cli(cli, cli_dir, "--hits", "3", "--format", fmt)
+        frameid.simulate(CASE1, hits=3, noise=0.01, seed=7, out=py_dir, format=fmt)
+        names = sorted(p.name for p in cli_dir.iterdir())
+        assert names == sorted(p.name for p in py_dir.iterdir())
+        assert "truth.json" in names
+        match, mismatch, errors = filecmp.cmpfiles(cli_dir, py_dir, names, shallow=False)
+        assert mismatch == [] and errors == [], (fmt, mismatch, errors)
+
+
+def test_sweep_writes_what_the_cli_writes(cli, tmp_path, monkeypatch):
+    scenario = "scenarios/paper-case1.toml"  # as given: recorded in sweep.json
+    code, _, err = cli("sweep", scenario, "--out", tmp_path / "cli", "--noise", "0,0.01", "--trials", "3",
+                       "--seed", "4", "--threads", "2")
+    assert code == 0, err
+    monkeypatch.chdir(REPO)
+    sw = frameid.sweep(scenario, noise=[0, 0.01], trials=3, seed=4, threads=1, out=tmp_path / "py")
+    names = sorted(p.name for p in (tmp_path / "cli").iterdir())
+    assert names == ["representative.json", "summary.json", "sweep.json", "trials.csv"]
+    match, mismatch, errors = filecmp.cmpfiles(tmp_path / "cli", tmp_path / "py", names, shallow=False)
+    assert mismatch == [] and errors == []
+    assert sw.summary_json() == (tmp_path / "cli" / "summary.json").read_text(encoding="utf-8")
+    # The command line merges shards the package wrote.
+    for k in (1, 2):
+        frameid.sweep(CASE1, noise=[0.01], trials=3, seed=4, shard=(k, 2), threads=1, out=tmp_path / f"s{k}")
+    code, _, err = cli("merge", tmp_path / "s1", tmp_path / "s2", "--out", tmp_path / "m")
+    assert code == 0, err
+    whole = frameid.sweep(CASE1, noise=[0.01], trials=3, seed=4, threads=1)
+    assert (tmp_path / "m" / "trials.csv").read_text(encoding="utf-8") == whole.trials_csv()
+    assert (tmp_path / "m" / "summary.json").read_text(encoding="utf-8") == whole.summary_json()
