@@ -1,4 +1,5 @@
-//! Helpers shared by the unit tests.
+//! Helpers shared by the unit tests: random systems and records. The analytic shear
+//! frames come from the `testkit` crate.
 
 use crate::record::Record;
 use crate::statespace::StateSpace;
@@ -70,51 +71,4 @@ pub fn max_relative_difference(got: &[DMatrix<f64>], want: &[DMatrix<f64>]) -> f
         .map(|(g, w)| (g - w).amax())
         .fold(0.0, f64::max)
         / scale
-}
-
-/// Mass, stiffness and damping of the paper's 2-DOF frame (eq. 44-45, Rayleigh damping from
-/// eq. 41-42).
-pub fn paper_frame() -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-    let m = DMatrix::from_row_slice(2, 2, &[0.2913, 0.0153, 0.0153, 0.3387]);
-    let k = DMatrix::from_row_slice(2, 2, &[630.44, -425.83, -425.83, 439.01]);
-    let damping = &m * 0.1755 + &k * 3.2283e-5;
-    (m, k, damping)
-}
-
-/// Continuous model with a force at DOF 0 and acceleration outputs at every DOF:
-/// `(Ac, Bc, C, D)` with `C = [-M^-1 K, -M^-1 R]`, `D = M^-1 e_0`.
-pub fn acceleration_model(
-    mass: &DMatrix<f64>,
-    stiffness: &DMatrix<f64>,
-    damping: &DMatrix<f64>,
-) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-    let n = mass.nrows();
-    let mi = mass.clone().try_inverse().unwrap();
-    let mut ac = DMatrix::zeros(2 * n, 2 * n);
-    ac.view_mut((0, n), (n, n))
-        .copy_from(&DMatrix::identity(n, n));
-    let mik = -(&mi * stiffness);
-    let mir = -(&mi * damping);
-    ac.view_mut((n, 0), (n, n)).copy_from(&mik);
-    ac.view_mut((n, n), (n, n)).copy_from(&mir);
-    let mut bc = DMatrix::zeros(2 * n, 1);
-    bc.view_mut((n, 0), (n, 1)).copy_from(&mi.column(0));
-    let mut c = DMatrix::zeros(n, 2 * n);
-    c.view_mut((0, 0), (n, n)).copy_from(&mik);
-    c.view_mut((0, n), (n, n)).copy_from(&mir);
-    let d = mi.columns(0, 1).into_owned();
-    (ac, bc, c, d)
-}
-
-/// Exact zero-order-hold discretization `(Ad, Bd)`.
-pub fn zoh(ac: &DMatrix<f64>, bc: &DMatrix<f64>, dt: f64) -> (DMatrix<f64>, DMatrix<f64>) {
-    let (n, r) = bc.shape();
-    let mut aug = DMatrix::zeros(n + r, n + r);
-    aug.view_mut((0, 0), (n, n)).copy_from(ac);
-    aug.view_mut((0, n), (n, r)).copy_from(bc);
-    let e = (aug * dt).exp();
-    (
-        e.view((0, 0), (n, n)).into_owned(),
-        e.view((0, n), (n, r)).into_owned(),
-    )
 }

@@ -7,9 +7,7 @@
 mod common;
 
 use common::*;
-use ident::refine::{
-    Dashpot, Node, NoiseLevels, Parametrization, Refinement, Refiner, SecondOrder, Uncertainty,
-};
+use ident::refine::{NoiseLevels, Parametrization, Refinement, Refiner, SecondOrder, Uncertainty};
 use ident::{Identification, Identifier, Intersample, Record};
 use nalgebra::DMatrix;
 use rand::rngs::ChaCha8Rng;
@@ -31,7 +29,7 @@ const START_CHECKS: usize = 5;
 
 struct Scenario {
     name: &'static str,
-    frame: Frame,
+    frame: ShearFrame,
     parametrization: Parametrization,
 }
 
@@ -91,7 +89,7 @@ fn pivot(shape: &nalgebra::DVector<ident::linalg::C64>) -> usize {
 
 /// Every entry of M, K and damping, every frequency and damping ratio, and the real and
 /// imaginary parts of every mode-shape component but the normalizing one.
-fn quantities(frame: &Frame, bound: &Uncertainty) -> Vec<Quantity> {
+fn quantities(frame: &ShearFrame, bound: &Uncertainty) -> Vec<Quantity> {
     let mut out = Vec::new();
     for (kind, name, truth, std) in [
         (Kind::Mass, "M", &frame.mass, &bound.mass_std),
@@ -246,7 +244,7 @@ fn add_noise(records: &mut [Record], levels: &NoiseLevels, rng: &mut ChaCha8Rng)
 }
 
 fn run_trial(
-    frame: &Frame,
+    frame: &ShearFrame,
     pivots: &[usize],
     clean: &[Record],
     levels: &NoiseLevels,
@@ -344,12 +342,7 @@ fn spread(values: &[f64]) -> f64 {
 }
 
 fn scenarios() -> Vec<Scenario> {
-    let shear3 = Parametrization::ShearFrame {
-        dashpots: vec![
-            Dashpot::between(Node::Ground, Node::Dof(1)),
-            Dashpot::between(Node::Ground, Node::Dof(2)),
-        ],
-    };
+    let shear3 = shear3();
     vec![
         Scenario {
             name: "2 storeys, Rayleigh, full",
@@ -358,7 +351,7 @@ fn scenarios() -> Vec<Scenario> {
         },
         Scenario {
             name: "2 storeys, extra dashpot, full",
-            frame: with_storey_dashpot(frame2(), 0.2),
+            frame: frame2().storey_dashpot(2, 0.2),
             parametrization: Parametrization::Full,
         },
         Scenario {
@@ -368,7 +361,7 @@ fn scenarios() -> Vec<Scenario> {
         },
         Scenario {
             name: "3 storeys, extra dashpot, shear frame",
-            frame: with_storey_dashpot(frame3(), 0.5),
+            frame: frame3().storey_dashpot(3, 0.5),
             parametrization: shear3,
         },
     ]

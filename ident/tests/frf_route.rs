@@ -14,7 +14,7 @@ use rand::rngs::ChaCha8Rng;
 /// Five hits (32-sample pre-trigger), optional output noise (fraction of
 /// each channel's RMS), H1 over 0..25 Hz with an exponential window down to
 /// 1e-3 at the record end, then the FRF route.
-fn identify(frame: &Frame, noise: f64, seed: u64) -> FrfIdentification {
+fn identify(frame: &ShearFrame, noise: f64, seed: u64) -> FrfIdentification {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let hits: Vec<Hit> = (0..5).map(|_| Hit::random(&mut rng, 32)).collect();
     let mut records = bandlimited_records(frame, &hits);

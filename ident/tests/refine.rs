@@ -18,16 +18,6 @@ fn hits(rng: &mut ChaCha8Rng, count: usize, pre: usize) -> Vec<Hit> {
     (0..count).map(|_| Hit::random(rng, pre)).collect()
 }
 
-fn shear3() -> Parametrization {
-    // Rayleigh damping alpha M needs ground dashpots at DOFs 1 and 2.
-    Parametrization::ShearFrame {
-        dashpots: vec![
-            Dashpot::between(Node::Ground, Node::Dof(1)),
-            Dashpot::between(Node::Ground, Node::Dof(2)),
-        ],
-    }
-}
-
 #[test]
 fn noise_free_records_give_the_true_matrices() {
     let mut rng = ChaCha8Rng::seed_from_u64(900);
@@ -39,7 +29,10 @@ fn noise_free_records_give_the_true_matrices() {
     for (name, base, parametrization) in cases {
         for (damping_kind, frame) in [
             ("proportional", base.clone()),
-            ("extra dashpot", with_storey_dashpot(base.clone(), 0.2)),
+            (
+                "extra dashpot",
+                base.clone().storey_dashpot(base.dofs(), 0.2),
+            ),
         ] {
             for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
                 let hit_list = hits(&mut rng, 3, 64);
@@ -107,14 +100,7 @@ fn campaign_levels(records: &[Record], fraction: f64, force: bool) -> NoiseLevel
 /// the force.
 #[test]
 fn paper_case1_bound() {
-    let mass = DMatrix::from_row_slice(2, 2, &[0.2913, 0.0153, 0.0153, 0.3387]);
-    let stiffness = DMatrix::from_row_slice(2, 2, &[630.44, -425.83, -425.83, 439.01]);
-    let damping = &mass * 0.1755 + &stiffness * 3.2283e-5;
-    let frame = Frame {
-        mass,
-        stiffness,
-        damping,
-    };
+    let frame = testkit::paper_case1();
     let truth = truth(&frame);
     let mut rng = ChaCha8Rng::seed_from_u64(1000);
     let records = bandlimited_records(&frame, &hits(&mut rng, 10, 64));
@@ -210,14 +196,14 @@ fn timing_of_one_refinement_and_one_bound() {
     assert!(refine_time.as_secs_f64() < 5.0 && bound_time.as_secs_f64() < 5.0);
 }
 
-fn held_campaign() -> (Frame, Vec<Record>) {
+fn held_campaign() -> (ShearFrame, Vec<Record>) {
     let frame = frame2();
     let mut rng = ChaCha8Rng::seed_from_u64(950);
     let records = held_records(&frame, &hits(&mut rng, 2, 8));
     (frame, records)
 }
 
-fn truth(frame: &Frame) -> SecondOrder {
+fn truth(frame: &ShearFrame) -> SecondOrder {
     SecondOrder::new(
         frame.mass.clone(),
         frame.stiffness.clone(),
@@ -395,7 +381,7 @@ fn matrices_must_have_one_size() {
 fn refinement_and_bound_share_the_likelihood() {
     let mut rng = ChaCha8Rng::seed_from_u64(960);
     for (frame, parametrization) in [
-        (with_storey_dashpot(frame2(), 0.2), Parametrization::Full),
+        (frame2().storey_dashpot(2, 0.2), Parametrization::Full),
         (frame3(), shear3()),
     ] {
         let records = bandlimited_records(&frame, &hits(&mut rng, 3, 64));

@@ -23,7 +23,7 @@ struct Errors {
     damping_rayleigh: f64,
 }
 
-fn errors(frame: &Frame, r: &Identification) -> Errors {
+fn errors(frame: &ShearFrame, r: &Identification) -> Errors {
     let truth = frame.modes();
     assert_eq!(r.frequencies_hz.len(), truth.len(), "one MKR mode per DOF");
     let mut frequency = 0.0f64;

@@ -5,6 +5,9 @@
 //! more random number from an existing stream or reorders one
 //! floating-point operation on the default path changes them.
 
+mod common;
+
+use common::paper_case1;
 use sim::{CampaignSettings, Model, Simulator};
 
 /// FNV-1a (64 bit) over the IEEE bits of every number of a campaign: hit
@@ -34,18 +37,8 @@ fn fingerprint(c: &sim::Campaign) -> u64 {
     h
 }
 
-fn paper_case1() -> Model {
-    let m = nalgebra::DMatrix::from_row_slice(2, 2, &[0.2913, 0.0153, 0.0153, 0.3387]);
-    let k = nalgebra::DMatrix::from_row_slice(2, 2, &[630.44, -425.83, -425.83, 439.01]);
-    let r = &m * 0.1755 + &k * 3.2283e-5;
-    Model::new(m, k, r).unwrap()
-}
-
 fn three_dof() -> Model {
-    let m = nalgebra::DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![1.4, 1.3, 1.1]));
-    let k = sim::structure::chain_matrix(&[1800.0, 1200.0, 700.0]);
-    let r = &m * 0.2 + &k * 2e-5;
-    Model::new(m, k, r).unwrap()
+    common::three_dof(0.2, 2e-5)
 }
 
 /// The `[campaign]` table of paper-case1.toml with 3 hits.

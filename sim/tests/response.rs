@@ -2,9 +2,12 @@
 //! superposition, the brute-force internal-grid computation, and the
 //! frequency response of the model.
 
+mod common;
+
 use std::f64::consts::PI;
 
 use approx::assert_relative_eq;
+use common::{paper_case1, three_dof};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 use rustfft::FftPlanner;
@@ -15,21 +18,6 @@ use sim::{
     Acquisition, AnalyzerSettings, CampaignSettings, DoubleHit, HammerSettings, Model,
     NoiseSettings, Pulse, Sampling, Simulator,
 };
-
-/// The paper's case 1 identified M and K with its Rayleigh damping.
-fn paper_case1() -> Model {
-    let m = DMatrix::from_row_slice(2, 2, &[0.2913, 0.0153, 0.0153, 0.3387]);
-    let k = DMatrix::from_row_slice(2, 2, &[630.44, -425.83, -425.83, 439.01]);
-    let r = &m * 0.1755 + &k * 3.2283e-5;
-    Model::new(m, k, r).unwrap()
-}
-
-fn three_dof(alpha: f64, beta: f64) -> Model {
-    let m = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![1.4, 1.3, 1.1]));
-    let k = sim::structure::chain_matrix(&[1800.0, 1200.0, 700.0]);
-    let r = &m * alpha + &k * beta;
-    Model::new(m, k, r).unwrap()
-}
 
 fn sdof() -> Model {
     let m = DMatrix::from_element(1, 1, 0.8);

@@ -527,7 +527,6 @@ mod tests {
     use super::*;
     use crate::frf::FrfQuantity;
     use crate::frf::synth::*;
-    use crate::testutil::paper_frame;
 
     fn nearest<'a>(poles: &[&'a LscfPole], target: C64) -> &'a LscfPole {
         poles
@@ -542,7 +541,7 @@ mod tests {
 
     #[test]
     fn true_modes_are_stable_over_orders_and_converge() {
-        let (m, k, r) = paper_frame();
+        let (m, k, r) = testkit::paper_case1().into_parts();
         let truth = true_modes(&m, &k, &r, &[0]);
         let frf = exact_frf(
             (&m, &k, &r),
@@ -617,7 +616,7 @@ mod tests {
 
     #[test]
     fn parameters_and_data_are_checked() {
-        let (m, k, r) = paper_frame();
+        let (m, k, r) = testkit::paper_case1().into_parts();
         let frf = exact_frf(
             (&m, &k, &r),
             &[0, 1],

@@ -4,44 +4,31 @@
 use super::{Frf, FrfQuantity};
 use crate::linalg::{self, C64};
 use crate::testutil::normal;
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 use rand::rngs::ChaCha8Rng;
 use std::f64::consts::PI;
-
-/// Shear frame with floor masses `m` (kg) and storey stiffnesses `k` (N/m),
-/// floor 1 first; storey 1 joins floor 1 to the ground.
-pub fn shear_frame(m: &[f64], k: &[f64]) -> (DMatrix<f64>, DMatrix<f64>) {
-    let n = m.len();
-    let mass = DMatrix::from_diagonal(&DVector::from_column_slice(m));
-    let mut stiffness = DMatrix::zeros(n, n);
-    for s in 0..n {
-        stiffness[(s, s)] += k[s];
-        if s > 0 {
-            stiffness[(s - 1, s - 1)] += k[s];
-            stiffness[(s - 1, s)] -= k[s];
-            stiffness[(s, s - 1)] -= k[s];
-        }
-    }
-    (mass, stiffness)
-}
 
 /// A 3-storey frame of the paper's scale: modes at 3.09, 7.80 and 11.23 Hz
 /// with [`non_proportional`] damping (3.04, 7.80, 11.23 with Rayleigh).
 pub fn three_storey() -> (DMatrix<f64>, DMatrix<f64>) {
-    shear_frame(&[0.30, 0.28, 0.25], &[600.0, 450.0, 350.0])
+    let frame = testkit::ShearFrame::lumped(&[0.30, 0.28, 0.25], &[600.0, 450.0, 350.0]);
+    (frame.mass, frame.stiffness)
 }
 
 /// Rayleigh damping `0.15 M + 4e-5 K`.
 pub fn rayleigh(m: &DMatrix<f64>, k: &DMatrix<f64>) -> DMatrix<f64> {
-    m * 0.15 + k * 4e-5
+    testkit::ShearFrame::undamped(m.clone(), k.clone())
+        .rayleigh(0.15, 4e-5)
+        .damping
 }
 
 /// Rayleigh damping plus a 0.3 N s/m dashpot from floor 1 to the ground:
 /// not proportional, complex modes.
 pub fn non_proportional(m: &DMatrix<f64>, k: &DMatrix<f64>) -> DMatrix<f64> {
-    let mut c = rayleigh(m, k);
-    c[(0, 0)] += 0.3;
-    c
+    testkit::ShearFrame::undamped(m.clone(), k.clone())
+        .rayleigh(0.15, 4e-5)
+        .storey_dashpot(1, 0.3)
+        .damping
 }
 
 /// Exact FRFs `(i w)^q (K - w^2 M + i w damping)^-1`, forces at the DOFs

@@ -1,21 +1,18 @@
 use super::*;
 use crate::modal::{Intersample, ModalParams};
 use crate::statespace::StateSpace;
-use crate::testutil::{acceleration_model, paper_frame, zoh};
 
 fn three_dof() -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-    let m = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![1.0, 0.9, 0.8]));
-    let (k1, k2, k3) = (1000.0, 900.0, 800.0);
-    let k = DMatrix::from_row_slice(3, 3, &[k1 + k2, -k2, 0.0, -k2, k2 + k3, -k3, 0.0, -k3, k3]);
-    let damping = &m * 0.12 + &k * 1.5e-4;
-    (m, k, damping)
+    testkit::ShearFrame::lumped(&[1.0, 0.9, 0.8], &[1000.0, 900.0, 800.0])
+        .rayleigh(0.12, 1.5e-4)
+        .into_parts()
 }
 
 /// Modes of the exact ZOH discretization of a frame (force at DOF 0).
 fn exact_modes(m: &DMatrix<f64>, k: &DMatrix<f64>, r: &DMatrix<f64>) -> (Vec<Mode>, DMatrix<f64>) {
-    let (ac, bc, c, d) = acceleration_model(m, k, r);
+    let (ac, bc, c, d) = testkit::ShearFrame::new(m.clone(), k.clone(), r.clone()).continuous(0);
     let dt = 1.0 / 64.0;
-    let (ad, bd) = zoh(&ac, &bc, dt);
+    let (ad, bd) = testkit::zoh(&ac, &bc, dt);
     let ss = StateSpace::new(ad, bd, c, d.clone(), dt);
     let model = ModalParams::new(Intersample::Zoh).fit(&ss, None).unwrap();
     (model.modes, d)
@@ -23,7 +20,7 @@ fn exact_modes(m: &DMatrix<f64>, k: &DMatrix<f64>, r: &DMatrix<f64>) -> (Vec<Mod
 
 #[test]
 fn exact_modes_give_back_mass_stiffness_and_damping() {
-    for (m, k, r) in [paper_frame(), three_dof()] {
+    for (m, k, r) in [testkit::paper_case1().into_parts(), three_dof()] {
         let (modes, d) = exact_modes(&m, &k, &r);
         let mkr = MkrParams::default().fit(&modes, &d).unwrap();
         // Exact modal data: expm, eig and two small inversions, round-off only (~1e-12).
@@ -51,7 +48,7 @@ fn exact_modes_give_back_mass_stiffness_and_damping() {
 
 #[test]
 fn inverted_polarity_is_flipped_or_refused() {
-    let (m, k, r) = paper_frame();
+    let (m, k, r) = testkit::paper_case1().into_parts();
     let (mut modes, d) = exact_modes(&m, &k, &r);
     for md in &mut modes {
         md.residue.neg_mut();
@@ -78,7 +75,7 @@ fn inverted_polarity_is_flipped_or_refused() {
 
 #[test]
 fn errors_are_typed() {
-    let (m, k, r) = paper_frame();
+    let (m, k, r) = testkit::paper_case1().into_parts();
     let (modes, d) = exact_modes(&m, &k, &r);
     assert_eq!(
         MkrParams::default().fit(&modes[..1], &d),

@@ -1,5 +1,4 @@
 use super::*;
-use crate::testutil::{acceleration_model, paper_frame, zoh};
 
 /// Continuous poles and residues of (Ac, Bc, C), by the crate's eigendecomposition.
 fn continuous_residues(
@@ -38,10 +37,9 @@ fn check_against_continuous(model: &ModalModel, truth: &[(C64, DVector<C64>)], t
 
 #[test]
 fn zoh_conversion_recovers_continuous_residues_of_a_held_system() {
-    let (m, k, r) = paper_frame();
-    let (ac, bc, c, d) = acceleration_model(&m, &k, &r);
+    let (ac, bc, c, d) = testkit::paper_case1().continuous(0);
     let dt = 1.0 / 64.0;
-    let (ad, bd) = zoh(&ac, &bc, dt);
+    let (ad, bd) = testkit::zoh(&ac, &bc, dt);
     let ss = StateSpace::new(ad, bd, c.clone(), d, dt);
     let model = ModalParams::new(Intersample::Zoh).fit(&ss, None).unwrap();
     // Exact discretization: only round-off of expm and eig remains (measured ~1e-13).
@@ -56,8 +54,7 @@ fn zoh_conversion_recovers_continuous_residues_of_a_held_system() {
 
 #[test]
 fn bandlimited_conversion_recovers_residues_of_an_impulse_invariant_system() {
-    let (m, k, r) = paper_frame();
-    let (ac, bc, c, d) = acceleration_model(&m, &k, &r);
+    let (ac, bc, c, d) = testkit::paper_case1().continuous(0);
     let dt = 1.0 / 64.0;
     let ad = (&ac * dt).exp();
     // Impulse invariance: C A^(k-1) B = dt C exp(Ac k dt) Bc, so B = dt A Bc.

@@ -6,7 +6,7 @@ use super::model::{Model, expm_frechet};
 use super::spectra::{self, Spectra};
 use super::uncertainty;
 use super::*;
-use crate::testutil::{normal, paper_frame};
+use crate::testutil::normal;
 use nalgebra::{DMatrix, DVector};
 use rand::SeedableRng;
 use rand::rngs::ChaCha8Rng;
@@ -14,16 +14,12 @@ use rand::rngs::ChaCha8Rng;
 const DT: f64 = 1.0 / 64.0;
 
 fn three_storeys() -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-    let m = DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 0.9, 0.8]));
-    let (k1, k2, k3) = (1000.0, 900.0, 800.0);
-    let k = DMatrix::from_row_slice(3, 3, &[k1 + k2, -k2, 0.0, -k2, k2 + k3, -k3, 0.0, -k3, k3]);
-    // Rayleigh plus an extra dashpot on storey 1 (non-proportional).
-    let mut r = &m * 0.12 + &k * 1.5e-4;
-    r[(0, 0)] += 0.3;
-    r[(0, 1)] -= 0.3;
-    r[(1, 0)] -= 0.3;
-    r[(1, 1)] += 0.3;
-    (m, k, r)
+    // Rayleigh plus an extra dashpot across storey 2, between floors 1 and 2
+    // (non-proportional).
+    testkit::ShearFrame::lumped(&[1.0, 0.9, 0.8], &[1000.0, 900.0, 800.0])
+        .rayleigh(0.12, 1.5e-4)
+        .storey_dashpot(2, 0.3)
+        .into_parts()
 }
 
 /// Records of white-noise force at DOF 0 through the exact held model, plus noise on every
@@ -68,7 +64,7 @@ fn held_model_with_inputs(
 
 #[test]
 fn frechet_derivative_of_the_exponential() {
-    let (m, k, r) = paper_frame();
+    let (m, k, r) = testkit::paper_case1().into_parts();
     let model = held_model(&m, &k, &r);
     let x = &model.a * DT;
     let mut rng = ChaCha8Rng::seed_from_u64(1);
@@ -228,7 +224,12 @@ fn check_jacobian_with_inputs(
 
 #[test]
 fn jacobian_matches_central_differences_held_2dof() {
-    check_jacobian(Intersample::Zoh, Parametrization::Full, paper_frame(), 11);
+    check_jacobian(
+        Intersample::Zoh,
+        Parametrization::Full,
+        testkit::paper_case1().into_parts(),
+        11,
+    );
 }
 
 #[test]
@@ -254,7 +255,7 @@ fn jacobian_matches_central_differences_two_inputs() {
         check_jacobian_with_inputs(
             intersample,
             Parametrization::Full,
-            paper_frame(),
+            testkit::paper_case1().into_parts(),
             17,
             &[0, 1],
         );
@@ -293,7 +294,7 @@ fn jacobian_matches_central_differences_bandlimited_2dof() {
     check_jacobian(
         Intersample::Bandlimited,
         Parametrization::Full,
-        paper_frame(),
+        testkit::paper_case1().into_parts(),
         14,
     );
 }
@@ -465,7 +466,7 @@ fn fisher_of_a_free_decay_matches_the_closed_form() {
 /// simulation). Short records keep the time-domain elimination small.
 #[test]
 fn bound_matches_brute_force_time_domain_fisher() {
-    let (m, k, r) = paper_frame();
+    let (m, k, r) = testkit::paper_case1().into_parts();
     let n = 2;
     let len = 128;
     let mut rng = ChaCha8Rng::seed_from_u64(21);
@@ -563,7 +564,7 @@ fn bound_matches_brute_force_time_domain_fisher() {
 /// the magnitude of the derivative with respect to parameter `p`.
 #[test]
 fn modal_gradients_match_central_differences() {
-    for (m, k, r) in [paper_frame(), three_storeys()] {
+    for (m, k, r) in [testkit::paper_case1().into_parts(), three_storeys()] {
         let n = m.nrows();
         let params = Parametrization::Full.parameters(n).unwrap();
         let (theta, _) = param::project(&params, &m, &k, &r);

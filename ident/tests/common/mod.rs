@@ -1,5 +1,5 @@
 //! Test data for the round trips, generated inside the test suite (no simulator crate):
-//! shear frames, exact held (zero-order-hold) records, and band-limited records computed
+//! shear frames (built by `testkit`), exact held (zero-order-hold) records, and band-limited records computed
 //! in the frequency domain.
 
 #![allow(dead_code)]
@@ -18,115 +18,33 @@ pub const DT_S: f64 = 1.0 / 64.0;
 /// Samples per record.
 pub const SAMPLES: usize = 2048;
 
-/// A shear frame with a force at DOF 0 and an accelerometer at every DOF.
-#[derive(Debug, Clone)]
-pub struct Frame {
-    pub mass: DMatrix<f64>,
-    pub stiffness: DMatrix<f64>,
-    pub damping: DMatrix<f64>,
-}
+/// The frames of the round trips: [`testkit::ShearFrame`], a force at DOF 0 and an
+/// accelerometer at every DOF.
+pub use testkit::ShearFrame;
 
-/// Rayleigh coefficients giving damping ratio `xi` at frequencies `f1` and `f2` (Hz).
-fn rayleigh_for(xi: f64, f1: f64, f2: f64) -> (f64, f64) {
-    let (w1, w2) = (2.0 * PI * f1, 2.0 * PI * f2);
-    let beta = 2.0 * xi / (w1 + w2);
-    (beta * w1 * w2, beta)
-}
-
-/// Two storeys close to the paper's frame (eq. 44-45): 2.73 and 9.16 Hz, ~0.5 % damping.
-pub fn frame2() -> Frame {
-    let mass = DMatrix::from_row_slice(2, 2, &[0.2913, 0.0153, 0.0153, 0.3387]);
-    let stiffness = DMatrix::from_row_slice(2, 2, &[630.44, -425.83, -425.83, 439.01]);
-    let (alpha, beta) = rayleigh_for(0.005, 2.73, 9.16);
-    let damping = &mass * alpha + &stiffness * beta;
-    Frame {
-        mass,
-        stiffness,
-        damping,
-    }
+/// Two storeys close to the paper's frame (eq. 44-45): 2.73 and 9.16 Hz, 0.5 % Rayleigh
+/// damping at both.
+pub fn frame2() -> ShearFrame {
+    testkit::paper_case1().rayleigh_ratio(0.005, 2.73, 9.16)
 }
 
 /// Three storeys, lumped masses 1.0, 0.9, 0.8 kg, storey stiffnesses 1000, 900, 800 N/m:
 /// about 2.3, 6.2 and 9.2 Hz, Rayleigh damping 0.5 % at the first and last mode.
-pub fn frame3() -> Frame {
-    let mass = DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 0.9, 0.8]));
-    let (k1, k2, k3) = (1000.0, 900.0, 800.0);
-    let stiffness =
-        DMatrix::from_row_slice(3, 3, &[k1 + k2, -k2, 0.0, -k2, k2 + k3, -k3, 0.0, -k3, k3]);
-    let f = frame_frequencies(&mass, &stiffness);
-    let (alpha, beta) = rayleigh_for(0.005, f[0], f[f.len() - 1]);
-    let damping = &mass * alpha + &stiffness * beta;
-    Frame {
-        mass,
-        stiffness,
-        damping,
-    }
+pub fn frame3() -> ShearFrame {
+    let frame = ShearFrame::lumped(&[1.0, 0.9, 0.8], &[1000.0, 900.0, 800.0]);
+    let f = frame.undamped_frequencies_hz();
+    frame.rayleigh_ratio(0.005, f[0], f[f.len() - 1])
 }
 
-/// Undamped natural frequencies (Hz), ascending.
-fn frame_frequencies(mass: &DMatrix<f64>, stiffness: &DMatrix<f64>) -> Vec<f64> {
-    let mi = mass.clone().try_inverse().unwrap();
-    let mut f: Vec<f64> = (mi * stiffness)
-        .complex_eigenvalues()
-        .iter()
-        .map(|l| l.re.sqrt() / (2.0 * PI))
-        .collect();
-    f.sort_by(f64::total_cmp);
-    f
-}
-
-impl Frame {
-    pub fn dofs(&self) -> usize {
-        self.mass.nrows()
-    }
-
-    /// Continuous model `(Ac, Bc, C, D)`: state `[x; x']`, force at DOF 0, absolute
-    /// accelerations out: `C = [-M^-1 K, -M^-1 R]`, `D = M^-1 e_0`.
-    pub fn continuous(&self) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-        let n = self.dofs();
-        let mi = self.mass.clone().try_inverse().unwrap();
-        let mik = -(&mi * &self.stiffness);
-        let mir = -(&mi * &self.damping);
-        let mut ac = DMatrix::zeros(2 * n, 2 * n);
-        ac.view_mut((0, n), (n, n)).fill_with_identity();
-        ac.view_mut((n, 0), (n, n)).copy_from(&mik);
-        ac.view_mut((n, n), (n, n)).copy_from(&mir);
-        let mut bc = DMatrix::zeros(2 * n, 1);
-        bc.view_mut((n, 0), (n, 1)).copy_from(&mi.column(0));
-        let mut c = DMatrix::zeros(n, 2 * n);
-        c.view_mut((0, 0), (n, n)).copy_from(&mik);
-        c.view_mut((0, n), (n, n)).copy_from(&mir);
-        let d = mi.columns(0, 1).into_owned();
-        (ac, bc, c, d)
-    }
-
-    /// True natural frequencies (Hz) and damping ratios, ascending (nalgebra's eigenvalues
-    /// of Ac, independent of the crate under test).
-    pub fn modes(&self) -> Vec<(f64, f64)> {
-        let (ac, ..) = self.continuous();
-        let mut out: Vec<(f64, f64)> = ac
-            .complex_eigenvalues()
-            .iter()
-            .filter(|l| l.im > 0.0)
-            .map(|l| (l.norm() / (2.0 * PI), -l.re / l.norm()))
-            .collect();
-        out.sort_by(|a, b| a.0.total_cmp(&b.0));
-        out
-    }
-
-    /// Exact zero-order-hold discretization `(Ad, Bd)` by the matrix exponential of
-    /// `[[Ac, Bc], [0, 0]] dt`.
-    pub fn zoh(&self, dt: f64) -> (DMatrix<f64>, DMatrix<f64>) {
-        let (ac, bc, ..) = self.continuous();
-        let n = ac.nrows();
-        let mut aug = DMatrix::zeros(n + 1, n + 1);
-        aug.view_mut((0, 0), (n, n)).copy_from(&ac);
-        aug.view_mut((0, n), (n, 1)).copy_from(&bc);
-        let e = (aug * dt).exp();
-        (
-            e.view((0, 0), (n, n)).into_owned(),
-            e.view((0, n), (n, 1)).into_owned(),
-        )
+/// The shear-frame parametrization of the refinement for [`frame3`]: its Rayleigh
+/// damping's `alpha M` needs ground dashpots at DOFs 1 and 2 besides the storey ones.
+pub fn shear3() -> ident::refine::Parametrization {
+    use ident::refine::{Dashpot, Node, Parametrization};
+    Parametrization::ShearFrame {
+        dashpots: vec![
+            Dashpot::between(Node::Ground, Node::Dof(1)),
+            Dashpot::between(Node::Ground, Node::Dof(2)),
+        ],
     }
 }
 
@@ -177,9 +95,9 @@ impl Hit {
 
 /// Held records: the force averaged over each sample and held (what a simulation that
 /// holds its input per sample produces); exact discrete response from rest.
-pub fn held_records(frame: &Frame, hits: &[Hit]) -> Vec<Record> {
-    let (ad, bd) = frame.zoh(DT_S);
-    let (_, _, c, d) = frame.continuous();
+pub fn held_records(frame: &ShearFrame, hits: &[Hit]) -> Vec<Record> {
+    let (a, b, c, d) = frame.continuous(0);
+    let (ad, bd) = testkit::zoh(&a, &b, DT_S);
     hits.iter()
         .map(|hit| {
             let u = DMatrix::from_fn(1, SAMPLES, |_, k| {
@@ -220,8 +138,8 @@ pub const FFT_LEN: usize = 1 << 16;
 /// low-pass filter, the response `H(j omega)` times that, both sampled at `DT_S` by an
 /// inverse DFT over `FFT_LEN` points. The structure is at rest long before the hit, so the
 /// record's zero initial state holds up to the filter's precursor before the record start.
-pub fn bandlimited_records(frame: &Frame, hits: &[Hit]) -> Vec<Record> {
-    let (ac, bc, c, d) = frame.continuous();
+pub fn bandlimited_records(frame: &ShearFrame, hits: &[Hit]) -> Vec<Record> {
+    let (ac, bc, c, d) = frame.continuous(0);
     let n = frame.dofs();
     let half = FFT_LEN / 2;
     let ns = ac.nrows();
@@ -326,7 +244,7 @@ pub fn rel(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
 }
 
 /// MKR-like start: every M and K entry off by up to 2 % (symmetrically), damping x3.
-pub fn perturbed(frame: &Frame, rng: &mut ChaCha8Rng) -> ident::refine::SecondOrder {
+pub fn perturbed(frame: &ShearFrame, rng: &mut ChaCha8Rng) -> ident::refine::SecondOrder {
     let n = frame.dofs();
     let mut jitter = |m: &DMatrix<f64>| {
         let mut out = m.clone();
@@ -344,15 +262,4 @@ pub fn perturbed(frame: &Frame, rng: &mut ChaCha8Rng) -> ident::refine::SecondOr
         jitter(&frame.stiffness),
         &frame.damping * 3.0,
     )
-}
-
-/// The frame with an extra dashpot on its top storey: non-proportional damping.
-pub fn with_storey_dashpot(mut frame: Frame, value: f64) -> Frame {
-    let n = frame.dofs();
-    let (a, b) = (n - 2, n - 1);
-    frame.damping[(a, a)] += value;
-    frame.damping[(b, b)] += value;
-    frame.damping[(a, b)] -= value;
-    frame.damping[(b, a)] -= value;
-    frame
 }

@@ -39,103 +39,77 @@ pub const NOISE_LEVELS: [f64; 5] = [0.0, 0.001, 0.01, 0.03, 0.1];
 pub const SAMPLES: usize = 2048;
 pub const DT: f64 = 1.0 / 64.0;
 
-/// A 2-DOF frame: mass, stiffness, Rayleigh coefficients.
-#[derive(Clone, Copy)]
+/// A 2-DOF frame of the fixtures: a `testkit` frame and the Rayleigh
+/// coefficients its damping was built with (shown in the set-up table, and
+/// giving the modal damping ratios `alpha / (2 w) + beta w / 2`).
+#[derive(Clone)]
 pub struct Frame {
-    pub m: [[f64; 2]; 2],
-    pub k: [[f64; 2]; 2],
+    pub frame: testkit::ShearFrame,
     pub alpha: f64,
     pub beta: f64,
 }
 
-pub const CASE1: Frame = Frame {
-    m: [[0.2913, 0.0153], [0.0153, 0.3387]],
-    k: [[630.44, -425.83], [-425.83, 439.01]],
-    alpha: 0.1755,
-    beta: 3.2283e-5,
-};
+/// The paper's case 1.
+pub fn case1() -> Frame {
+    let (alpha, beta) = testkit::PAPER_CASE1_RAYLEIGH;
+    Frame {
+        frame: testkit::paper_case1(),
+        alpha,
+        beta,
+    }
+}
 
-pub const CASE2: Frame = Frame {
-    m: [[1.3771, 0.0119], [0.0119, 0.5566]],
-    k: [[949.0, -710.0], [-710.0, 745.0]],
-    alpha: 0.1752,
-    beta: 3.4355e-5,
-};
+/// The paper's case 2.
+pub fn case2() -> Frame {
+    let (alpha, beta) = testkit::PAPER_CASE2_RAYLEIGH;
+    Frame {
+        frame: testkit::paper_case2(),
+        alpha,
+        beta,
+    }
+}
+
+fn array(m: &impl std::ops::Index<(usize, usize), Output = f64>) -> [[f64; 2]; 2] {
+    [[m[(0, 0)], m[(0, 1)]], [m[(1, 0)], m[(1, 1)]]]
+}
 
 impl Frame {
+    pub fn m(&self) -> [[f64; 2]; 2] {
+        array(&self.frame.mass)
+    }
+
+    pub fn k(&self) -> [[f64; 2]; 2] {
+        array(&self.frame.stiffness)
+    }
+
     pub fn damping(&self) -> [[f64; 2]; 2] {
-        let mut r = [[0.0; 2]; 2];
-        for i in 0..2 {
-            for j in 0..2 {
-                r[i][j] = self.alpha * self.m[i][j] + self.beta * self.k[i][j];
-            }
-        }
-        r
+        array(&self.frame.damping)
     }
 
-    /// Undamped natural frequencies (Hz), ascending, and mode shapes scaled
-    /// to a largest component of 1.
+    /// Undamped natural frequencies (Hz), ascending, their Rayleigh damping
+    /// ratios, and mode shapes scaled to a largest component of 1.
     pub fn modes(&self) -> Vec<(f64, f64, [f64; 2])> {
-        let (m, k) = (self.m, self.k);
-        // det(K - w2 M) = 0: a w2^2 + b w2 + c = 0
-        let a = m[0][0] * m[1][1] - m[0][1] * m[1][0];
-        let b = -(k[0][0] * m[1][1] + k[1][1] * m[0][0] - k[0][1] * m[1][0] - k[1][0] * m[0][1]);
-        let c = k[0][0] * k[1][1] - k[0][1] * k[1][0];
-        let disc = (b * b - 4.0 * a * c).sqrt();
-        let mut out = vec![];
-        for w2 in [(-b - disc) / (2.0 * a), (-b + disc) / (2.0 * a)] {
-            let w = w2.sqrt();
-            let xi = self.alpha / (2.0 * w) + self.beta * w / 2.0;
-            // (K - w2 M) phi = 0, first row
-            let phi = [-(k[0][1] - w2 * m[0][1]), k[0][0] - w2 * m[0][0]];
-            let s = if phi[0].abs() >= phi[1].abs() {
-                phi[0]
-            } else {
-                phi[1]
-            };
-            out.push((
-                w / (2.0 * std::f64::consts::PI),
-                xi,
-                [phi[0] / s, phi[1] / s],
-            ));
-        }
-        out
+        self.frame
+            .undamped_modes()
+            .into_iter()
+            .map(|(f, phi)| {
+                let w = 2.0 * std::f64::consts::PI * f;
+                let xi = self.alpha / (2.0 * w) + self.beta * w / 2.0;
+                (f, xi, [phi[0], phi[1]])
+            })
+            .collect()
     }
 
-    /// Accelerance of both floors to a force at floor 1 at `f` Hz.
+    /// Accelerance `[re, im]` of both floors to a force at floor 1 at `f`
+    /// Hz, with K and the damping scaled by `scale_k` and `scale_r`.
     pub fn frf(&self, f: f64, scale_k: f64, scale_r: f64) -> [[f64; 2]; 2] {
-        let w = 2.0 * std::f64::consts::PI * f;
-        let r = self.damping();
-        // Z = K - w^2 M + i w R (complex 2x2), H = -w^2 Z^-1 e1
-        let mut zr = [[0.0; 2]; 2];
-        let mut zi = [[0.0; 2]; 2];
-        for i in 0..2 {
-            for j in 0..2 {
-                zr[i][j] = scale_k * self.k[i][j] - w * w * self.m[i][j];
-                zi[i][j] = w * scale_r * r[i][j];
-            }
-        }
-        let cmul =
-            |a: [f64; 2], b: [f64; 2]| [a[0] * b[0] - a[1] * b[1], a[0] * b[1] + a[1] * b[0]];
-        let det = {
-            let p = cmul([zr[0][0], zi[0][0]], [zr[1][1], zi[1][1]]);
-            let q = cmul([zr[0][1], zi[0][1]], [zr[1][0], zi[1][0]]);
-            [p[0] - q[0], p[1] - q[1]]
-        };
-        let d2 = det[0] * det[0] + det[1] * det[1];
-        let div = |a: [f64; 2]| {
-            [
-                (a[0] * det[0] + a[1] * det[1]) / d2,
-                (a[1] * det[0] - a[0] * det[1]) / d2,
-            ]
-        };
-        // Z^-1 e1 = [Z11', Z21'] = [z22, -z21] / det
-        let x1 = div([zr[1][1], zi[1][1]]);
-        let x2 = div([-zr[1][0], -zi[1][0]]);
-        [
-            [-w * w * x1[0], -w * w * x1[1]],
-            [-w * w * x2[0], -w * w * x2[1]],
-        ]
+        let scaled = testkit::ShearFrame::new(
+            self.frame.mass.clone(),
+            &self.frame.stiffness * scale_k,
+            &self.frame.damping * scale_r,
+        );
+        let h = scaled.accelerance(0, f);
+        [[h[0].re, h[0].im], [h[1].re, h[1].im]]
     }
 }
 
@@ -450,11 +424,11 @@ pub fn representative(
                 })
                 .collect(),
         },
-        matrix_table("Mass matrix M", "kg", frame.m, [1.0012, 1.2, 0.9991]),
+        matrix_table("Mass matrix M", "kg", frame.m(), [1.0012, 1.2, 0.9991]),
         matrix_table(
             "Stiffness matrix K",
             "N/m",
-            frame.k,
+            frame.k(),
             [1.0021, 0.9987, 1.0004],
         ),
         matrix_table(
@@ -519,6 +493,7 @@ fn matrix_table(title: &str, unit: &str, m: [[f64; 2]; 2], factor: [f64; 3]) -> 
 }
 
 fn setup(frame: &Frame, levels: &[f64]) -> Vec<SetupRow> {
+    let (m, k) = (frame.m(), frame.k());
     let row = |l: &str, v: String| SetupRow {
         label: l.into(),
         value: v,
@@ -527,17 +502,11 @@ fn setup(frame: &Frame, levels: &[f64]) -> Vec<SetupRow> {
         row("Structure", "two-storey shear frame, given M and K".into()),
         row(
             "Mass M [kg]",
-            format!(
-                "[[{}, {}], [{}, {}]]",
-                frame.m[0][0], frame.m[0][1], frame.m[1][0], frame.m[1][1]
-            ),
+            format!("[[{}, {}], [{}, {}]]", m[0][0], m[0][1], m[1][0], m[1][1]),
         ),
         row(
             "Stiffness K [N/m]",
-            format!(
-                "[[{}, {}], [{}, {}]]",
-                frame.k[0][0], frame.k[0][1], frame.k[1][0], frame.k[1][1]
-            ),
+            format!("[[{}, {}], [{}, {}]]", k[0][0], k[0][1], k[1][0], k[1][1]),
         ),
         row(
             "Damping",
@@ -581,8 +550,8 @@ pub fn report_with_samples(samples: usize) -> Report {
             "Paper case 1: bare two-storey frame, identified M and K with Rayleigh damping as truth"
                 .into(),
         seed: 20110525,
-        setup: setup(&CASE1, &levels),
-        representative: Some(representative(&CASE1, 0.01, true, samples, 1)),
+        setup: setup(&case1(), &levels),
+        representative: Some(representative(&case1(), 0.01, true, samples, 1)),
         accuracy: Accuracy {
             axis_name: None,
             panels: vec![panel(None, &levels, 1.0)],
@@ -593,8 +562,8 @@ pub fn report_with_samples(samples: usize) -> Report {
         name: "frame-added-mass".into(),
         description: "Section-4 frame, bare and with one more aluminium block on floor 1".into(),
         seed: 7,
-        setup: setup(&CASE2, &levels),
-        representative: Some(representative(&CASE2, 0.01, true, samples, 2)),
+        setup: setup(&case2(), &levels),
+        representative: Some(representative(&case2(), 0.01, true, samples, 2)),
         accuracy: Accuracy {
             axis_name: Some("added mass on floor 1".into()),
             panels: vec![
@@ -605,7 +574,7 @@ pub fn report_with_samples(samples: usize) -> Report {
         },
     };
     let levels3 = vec![0.0, 0.005, 0.01, 0.02, 0.05];
-    let mut rep3 = representative(&CASE2, 0.02, false, samples, 3);
+    let mut rep3 = representative(&case2(), 0.02, false, samples, 3);
     rep3.warnings = vec![
         "Driving-point residues are negative: the force polarity was inverted and has been flipped.".into(),
     ];
@@ -613,7 +582,7 @@ pub fn report_with_samples(samples: usize) -> Report {
         name: "paper-case2".into(),
         description: "Paper case 2: added mass on floor 1; stiffness implied by eq. 64".into(),
         seed: 3,
-        setup: setup(&CASE2, &levels3),
+        setup: setup(&case2(), &levels3),
         representative: Some(rep3),
         accuracy: Accuracy {
             axis_name: None,

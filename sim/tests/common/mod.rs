@@ -1,48 +1,45 @@
-//! Helpers shared by the simulator's integration tests: models, closed-form
-//! frequency responses, sine fits and spectra (all independent of the
-//! simulator's state-space code).
+//! Helpers shared by the simulator's integration tests: models (frames from
+//! `testkit`), closed-form frequency responses, sine fits and spectra (all
+//! independent of the simulator's state-space code).
 #![allow(dead_code)]
 
 use std::f64::consts::PI;
 
-use nalgebra::DMatrix;
 use num_complex::Complex64;
 use rustfft::FftPlanner;
 use sim::analyzer::kaiser_lowpass;
 use sim::{AnalyzerSettings, CampaignSettings, Model, Simulator};
 
+/// The simulator's checked model of a `testkit` frame.
+pub fn model(frame: testkit::ShearFrame) -> Model {
+    let (mass, stiffness, damping) = frame.into_parts();
+    Model::new(mass, stiffness, damping).unwrap()
+}
+
 /// The paper's case 1 identified M and K with its Rayleigh damping
 /// (modes 2.73 and 9.15 Hz).
 pub fn paper_case1() -> Model {
-    let m = DMatrix::from_row_slice(2, 2, &[0.2913, 0.0153, 0.0153, 0.3387]);
-    let k = DMatrix::from_row_slice(2, 2, &[630.44, -425.83, -425.83, 439.01]);
-    let r = &m * 0.1755 + &k * 3.2283e-5;
-    Model::new(m, k, r).unwrap()
+    model(testkit::paper_case1())
 }
 
-/// Three floors with Rayleigh damping `alpha M + beta K`.
+/// Three floors (1.4, 1.3, 1.1 kg on storeys of 1800, 1200, 700 N/m) with
+/// Rayleigh damping `alpha M + beta K`.
 pub fn three_dof(alpha: f64, beta: f64) -> Model {
-    let m = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![1.4, 1.3, 1.1]));
-    let k = sim::structure::chain_matrix(&[1800.0, 1200.0, 700.0]);
-    let r = &m * alpha + &k * beta;
-    Model::new(m, k, r).unwrap()
+    model(
+        testkit::ShearFrame::lumped(&[1.4, 1.3, 1.1], &[1800.0, 1200.0, 700.0])
+            .rayleigh(alpha, beta),
+    )
 }
 
 /// Accelerance of every floor for a force at `input` (zero-based) from
-/// `-w^2 (K - w^2 M + i w R)^-1 e_input`.
+/// `-w^2 (K - w^2 M + i w R)^-1 e_input` ([`testkit::ShearFrame::accelerance`]).
 pub fn accelerance(model: &Model, input: usize, frequency_hz: f64) -> Vec<Complex64> {
-    let w = 2.0 * PI * frequency_hz;
-    let n = model.dofs();
-    let z = DMatrix::from_fn(n, n, |i, j| {
-        Complex64::new(
-            model.stiffness[(i, j)] - w * w * model.mass[(i, j)],
-            w * model.damping[(i, j)],
-        )
-    });
-    let mut e = DMatrix::<Complex64>::zeros(n, 1);
-    e[(input, 0)] = Complex64::new(1.0, 0.0);
-    let x = z.lu().solve(&e).unwrap();
-    x.iter().map(|v| v * (-w * w)).collect()
+    testkit::ShearFrame::new(
+        model.mass.clone(),
+        model.stiffness.clone(),
+        model.damping.clone(),
+    )
+    .accelerance(input, frequency_hz)
 }
 
 /// Butterworth gain from its pole product formula.

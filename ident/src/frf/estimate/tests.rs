@@ -2,7 +2,7 @@ use super::*;
 use crate::linalg;
 use crate::record::Channel;
 use crate::statespace::StateSpace;
-use crate::testutil::{acceleration_model, normal, paper_frame, zoh};
+use crate::testutil::normal;
 use rand::SeedableRng;
 use rand::rngs::ChaCha8Rng;
 
@@ -420,10 +420,9 @@ fn contained_transients_give_the_exact_frf() {
 /// Discrete 2-DOF frame (the paper's M, K and Rayleigh damping, ZOH at 64 Hz), force at
 /// floor 1, accelerations at both floors.
 fn frame() -> (StateSpace, DMatrix<f64>) {
-    let (mass, stiffness, damping) = paper_frame();
-    let (ac, bc, c, d) = acceleration_model(&mass, &stiffness, &damping);
+    let (ac, bc, c, d) = testkit::paper_case1().continuous(0);
     let dt = 1.0 / 64.0;
-    let (ad, bd) = zoh(&ac, &bc, dt);
+    let (ad, bd) = testkit::zoh(&ac, &bc, dt);
     (StateSpace::new(ad, bd, c, d, dt), ac)
 }
 

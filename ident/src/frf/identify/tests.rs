@@ -5,7 +5,7 @@ use super::*;
 use crate::frf::lsfd::RefineStop;
 use crate::frf::synth::*;
 use crate::mkr::MkrError;
-use crate::testutil::{normal, paper_frame};
+use crate::testutil::normal;
 use rand::SeedableRng;
 use rand::rngs::ChaCha8Rng;
 use std::f64::consts::PI;
@@ -114,7 +114,7 @@ fn assert_exact(
 
 #[test]
 fn paper_frame_on_an_analyzer_grid_gives_back_m_k_and_damping() {
-    let system = paper_frame();
+    let system = testkit::paper_case1().into_parts();
     let (m, k, r) = &system;
     let truth = true_modes(m, k, r, &[0]);
     let frf = paper_grid_frf(&system, FrfQuantity::Accelerance);
@@ -262,7 +262,7 @@ fn band_without_the_highest_mode_keeps_the_in_band_modes() {
 fn a_mode_outside_the_model_is_reported() {
     // The paper's frame with a light appendage (5 g, 15 Hz, 1 % damping) on
     // floor 2, measured at the floors only: three modes, a 2-DOF model.
-    let (m2, k2, r2) = paper_frame();
+    let (m2, k2, r2) = testkit::paper_case1().into_parts();
     let (ma, fa, za) = (0.005, 15.0, 0.01);
     let ka = ma * (2.0 * PI * fa).powi(2);
     let ca = 2.0 * za * ma * 2.0 * PI * fa;
@@ -364,7 +364,7 @@ fn a_mode_outside_the_model_is_reported() {
 
 #[test]
 fn inverted_polarity_is_flipped_or_refused() {
-    let system = paper_frame();
+    let system = testkit::paper_case1().into_parts();
     let clean = paper_grid_frf(&system, FrfQuantity::Accelerance);
     let mut inverted = clean.clone();
     for h in &mut inverted.values {
@@ -400,7 +400,7 @@ fn inverted_polarity_is_flipped_or_refused() {
 fn an_exponential_window_is_taken_out_of_the_poles() {
     // Records windowed by exp(-t / tau), tau = 8 s: every pole moves by
     // -1/8 1/s (the 2.7 Hz mode's damping ratio goes from 0.54 % to 1.27 %).
-    let system = paper_frame();
+    let system = testkit::paper_case1().into_parts();
     let (m, k, r) = &system;
     let truth = true_modes(m, k, r, &[0]);
     let tau_s = 8.0;
@@ -464,7 +464,7 @@ fn an_exponential_window_is_taken_out_of_the_poles() {
 fn noisy_frfs_errors_match_the_predicted_standard_errors() {
     // Circular complex Gaussian noise of standard deviation 1 % and 0.1 % of
     // the RMS FRF on every line, 30 runs each (seeded).
-    let system = paper_frame();
+    let system = testkit::paper_case1().into_parts();
     let (m, k, r) = &system;
     let truth = true_modes(m, k, r, &[0]);
     let clean = paper_grid_frf(&system, FrfQuantity::Accelerance);
@@ -577,7 +577,7 @@ fn noisy_three_storey_with_two_references() {
 fn coherence_weighting_uses_the_noise_level_of_each_line() {
     // Every other line ten times noisier, and the coherence an H1 estimate
     // with n averages shows for that noise: sigma^2 = (1 - g^2)|H|^2 / (2 n g^2).
-    let system = paper_frame();
+    let system = testkit::paper_case1().into_parts();
     let (m, k, r) = &system;
     let truth = true_modes(m, k, r, &[0]);
     let clean = paper_grid_frf(&system, FrfQuantity::Accelerance);
@@ -641,7 +641,7 @@ fn coherence_weighting_uses_the_noise_level_of_each_line() {
 
 #[test]
 fn bad_parameters_and_impossible_selections_are_typed_errors() {
-    let system = paper_frame();
+    let system = testkit::paper_case1().into_parts();
     let frf = paper_grid_frf(&system, FrfQuantity::Accelerance);
     let run = |id: FrfIdentifier| id.identify(&frf).unwrap_err();
     assert!(matches!(
