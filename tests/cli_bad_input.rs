@@ -219,12 +219,23 @@ fn named_channel_that_does_not_exist() {
 fn fewer_outputs_than_degrees_of_freedom() {
     let dir = tempfile::tempdir().unwrap();
     // Three floors, two accelerometers selected: the records show three
-    // structural modes.
+    // structural modes. frameid cannot tell a floor without an
+    // accelerometer from a mode the shear model lacks (the real-structures
+    // issue: never refused by default), so it identifies a 2-DOF model,
+    // reports the third mode and says both readings; --strict refuses.
     let files = campaign(&dir.path().join("three"), "frame-three-storey.toml", 3);
-    let mut args: Vec<&str> = files.iter().map(String::as_str).collect();
+    let mut args: Vec<&str> = vec!["identify"];
+    args.extend(files.iter().map(String::as_str));
     args.extend(["--outputs", "acc1,acc2"]);
+    let out = ok(&args);
+    assert!(
+        out.contains("1 structural mode(s) outside the 2-DOF model")
+            && out.contains("a floor without an accelerometer"),
+        "{out}"
+    );
+    args.push("--strict");
     refused(
-        &args,
+        &args[1..],
         &[
             "the records show 3 structural modes",
             "only 2 outputs are selected (acc1, acc2): fewer outputs than degrees of freedom",

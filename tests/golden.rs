@@ -24,8 +24,9 @@
 //!
 //! The bad-data issue added two keys to `identify --json`,
 //! `inconsistent_hits` and `consistency_notes` (empty for this clean
-//! campaign); they were inserted into the golden files by hand, nothing else
-//! changed.
+//! campaign), and the real-structures issue two more, `mode_selection`
+//! (`all-structural` here) and `out_of_model_modes` (empty); they were
+//! inserted into the golden files by hand, nothing else changed.
 
 mod common;
 

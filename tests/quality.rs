@@ -180,7 +180,10 @@ fn bad_hits_are_reported_refused_or_dropped() {
         "relative errors with the bad hits: M {m_all:.4}, K {k_all:.4}; without: M {m:.4}, K {k:.4}"
     );
     assert!(m < 0.01 && k < 0.01, "M {m}, K {k}");
-    assert!(m_all > m && k_all > k, "the bad hits spoil the result");
+    // Without flags the clipped hits are dropped as inconsistent and the
+    // double hits (whose input-output relation is intact, and OKID takes
+    // any input) kept: the result is as good.
+    assert!(m_all < 0.01 && k_all < 0.01, "M {m_all}, K {k_all}");
 }
 
 #[test]

@@ -441,7 +441,7 @@ pub fn analyze_located(
             )
         };
         warnings.push(format!(
-            "{} structural mode(s) outside the {}-DOF model: {}; M, K and R use {} Hz, chosen as {}. Name the model's modes with --modes or --band if the choice is wrong (--strict refuses instead)",
+            "{} structural mode(s) outside the {}-DOF model (a mode the shear model lacks, or a floor without an accelerometer): {}; M, K and R use {} Hz, chosen as {}. Name the model's modes with --modes or --band if the choice is wrong; if a floor has no accelerometer selected, the model is wrong: select every floor's with --outputs (--strict refuses instead)",
             outside.len(),
             c.outputs.len(),
             outside.iter().map(describe).collect::<Vec<_>>().join(", "),
