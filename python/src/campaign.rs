@@ -6,11 +6,10 @@ use nalgebra::DMatrix;
 use numpy::ndarray::{Array3, ArrayD};
 use numpy::{IntoPyArray, PyArray3};
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
 use records::{ChannelSpec, ReadOptions, RecordFile};
 
 use crate::arrays::f64_array;
-use crate::{error, from_state, guard, lib_error, reduce, to_state};
+use crate::{Reduced, error, from_state, guard, lib_error, reduce, to_state};
 
 /// The hits of one test set-up: force and acceleration records sampled
 /// every ``dt_s`` seconds, with channel and hit names.
@@ -271,10 +270,7 @@ impl Campaign {
             .is_ok_and(|o| o.get().inner == self.inner)
     }
 
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
         reduce(py, "Campaign", to_state(py, &self.inner)?)
     }
 }

@@ -10,14 +10,13 @@ use ident::{Intersample, Jackknife};
 use num_complex::Complex64;
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
 use serde::{Deserialize, Serialize};
 use study::analysis::{AnalysisSettings, Screening, analyze, identifier};
 use study::scenario::ParametrizationSetting;
 
 use crate::arrays::{self, matrix, rows, vector};
 use crate::campaign::Campaign;
-use crate::{error, from_state, guard, lib_error, lib_error_in, reduce, to_state};
+use crate::{Reduced, error, from_state, guard, lib_error, lib_error_in, reduce, to_state};
 
 /// Where an identification came from (the `source` of the command line's
 /// JSON).
@@ -252,8 +251,8 @@ impl Identification {
     }
 
     /// Whether this is the identification of a given realization.
-    #[getter]
-    fn from_realization(&self) -> bool {
+    #[getter(from_realization)]
+    fn is_realization(&self) -> bool {
         self.state.source.realization
     }
 
@@ -325,10 +324,7 @@ impl Identification {
             .is_ok_and(|o| o.get().state == self.state)
     }
 
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
         reduce(py, "Identification", to_state(py, &self.state)?)
     }
 }
@@ -437,10 +433,7 @@ impl Mode {
         )
     }
 
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
         reduce(py, "Mode", to_state(py, &self.state)?)
     }
 }
@@ -574,10 +567,7 @@ impl Uncertainty {
             self.state.failed.len()
         )
     }
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
         reduce(py, "Uncertainty", to_state(py, &self.state)?)
     }
 }
@@ -694,10 +684,7 @@ impl Refined {
             self.state.stop
         )
     }
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
         reduce(py, "Refined", to_state(py, &self.state)?)
     }
 }
@@ -765,10 +752,7 @@ impl RefinedMode {
             self.state.damping_ratio_std
         )
     }
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
         reduce(py, "RefinedMode", to_state(py, &self.state)?)
     }
 }

@@ -32,7 +32,7 @@ def identify_cli(cli, files, *flags):
 
 
 def same(array, rows):
-    np.testing.assert_array_equal(np.asarray(array), np.asarray(rows, dtype=float))
+    np.testing.assert_array_equal(np.asarray(array), np.asarray(rows))
 
 
 def check_modes(res, doc):
