@@ -396,7 +396,7 @@ def read_records(
 
 def identify(
     campaign: Campaign,
-    collocated: tuple[_Pick, _Pick] | None = None,
+    collocated: tuple[_Pick, _Pick] | Sequence[_Pick] | str | None = None,
     *,
     order: int | None = None,
     observer_order: int | None = None,
@@ -411,7 +411,7 @@ def identify(
 
 def identify_realization(
     path: _Path,
-    collocated: tuple[_Pick, _Pick] | None = None,
+    collocated: tuple[_Pick, _Pick] | Sequence[_Pick] | str | None = None,
     *,
     order: int | None = None,
     intersample: str = "bandlimited",

@@ -775,14 +775,38 @@ fn extract_pick(obj: &Bound<'_, PyAny>) -> PyResult<Pick> {
 }
 
 /// `collocated` as `(output, input)` indices among the names (as the
-/// command line's `--collocated OUT:IN`).
+/// command line's `--collocated OUT:IN`): a pair of zero-based indices or
+/// channel names, or the text `"OUT:IN"`.
 fn resolve_collocated(
-    collocated: Option<(Bound<'_, PyAny>, Bound<'_, PyAny>)>,
+    collocated: Option<&Bound<'_, PyAny>>,
     outputs: &[String],
     inputs: &[String],
 ) -> PyResult<(usize, usize)> {
-    let Some((o, i)) = collocated else {
+    let Some(given) = collocated else {
         return Ok((0, 0));
+    };
+    let (o, i) = if let Ok(text) = given.extract::<String>() {
+        let (o, i) = text.split_once(':').ok_or_else(|| {
+            error(format!(
+                "collocated: expected (output, input) or 'OUT:IN' (e.g. (0, 0) or 'acc1:force'), got '{text}'"
+            ))
+        })?;
+        let pick = |t: &str| match t.trim().parse::<usize>() {
+            Ok(k) => Pick::Index(k),
+            Err(_) => Pick::Name(t.to_string()),
+        };
+        (pick(o), pick(i))
+    } else {
+        let pair: Vec<Bound<'_, PyAny>> = given.extract().map_err(|_| {
+            error("collocated: expected (output, input) as zero-based indices or channel names")
+        })?;
+        let [o, i] = pair.as_slice() else {
+            return Err(error(format!(
+                "collocated: expected 2 entries (output, input), got {}",
+                pair.len()
+            )));
+        };
+        (extract_pick(o)?, extract_pick(i)?)
     };
     let find = |what: &str, pick: Pick, names: &[String]| -> PyResult<usize> {
         match pick {
@@ -803,10 +827,7 @@ fn resolve_collocated(
                 }),
         }
     };
-    Ok((
-        find("output", extract_pick(&o)?, outputs)?,
-        find("input", extract_pick(&i)?, inputs)?,
-    ))
+    Ok((find("output", o, outputs)?, find("input", i, inputs)?))
 }
 
 fn parse_intersample(text: &str) -> PyResult<Intersample> {
@@ -841,7 +862,7 @@ fn check_observer_order(observer_order: Option<usize>) -> PyResult<()> {
 fn identify(
     py: Python<'_>,
     campaign: &Bound<'_, PyAny>,
-    collocated: Option<(Bound<'_, PyAny>, Bound<'_, PyAny>)>,
+    collocated: Option<&Bound<'_, PyAny>>,
     order: Option<usize>,
     observer_order: Option<usize>,
     intersample: &str,
@@ -927,7 +948,7 @@ fn identify(
 fn identify_realization(
     py: Python<'_>,
     path: PathBuf,
-    collocated: Option<(Bound<'_, PyAny>, Bound<'_, PyAny>)>,
+    collocated: Option<&Bound<'_, PyAny>>,
     order: Option<usize>,
     intersample: &str,
 ) -> PyResult<Identification> {

@@ -103,6 +103,9 @@ def test_campaign_from_numpy_identifies_as_the_simulated_one(case1, case1_result
     res = frameid.identify(named, collocated=("A", "f"), uncertainty=False)
     assert res.collocated == (0, 0) and res.outputs == ["a", "b"]
     np.testing.assert_array_equal(res.mass, case1_result.mass)
+    # As the command line's --collocated OUT:IN, or any pair.
+    assert frameid.identify(named, collocated="a:F", uncertainty=False).collocated == (0, 0)
+    assert frameid.identify(named, collocated=[0, "F"], uncertainty=False).collocated == (0, 0)
 
 
 def test_refine(case1, case1_refined):
