@@ -138,7 +138,7 @@ pub struct IdentifyArgs {
     /// Write the result as JSON on standard output
     #[arg(long)]
     pub json: bool,
-    /// Refuse the campaign if any hit fails a quality check (double hit, clipping, long pulse, undecayed response, low SNR)
+    /// Refuse the campaign if any hit fails a quality check (double hit, clipping, long pulse, undecayed response, low SNR) or is inconsistent with the other hits (dead, copied or spiked channel, duplicate record, level, spectrum or residual against the joint model; without --strict such hits are dropped with a warning)
     #[arg(long, conflicts_with = "drop_bad_hits")]
     pub strict: bool,
     /// Identify without the hits that fail a quality check (and say which were dropped)
@@ -194,7 +194,7 @@ pub struct ReportArgs {
 
 #[derive(Debug, Args)]
 pub struct SweepArgs {
-    /// Scenario file (TOML); its [sweep] table gives the defaults
+    /// Scenario file (TOML); its `[sweep]` table gives the defaults
     pub scenario: PathBuf,
     /// Output directory: trials.csv, summary.json, sweep.json
     #[arg(long)]

@@ -5,6 +5,7 @@
 use ident::refine::Refinement;
 use ident::{Identification, Jackknife};
 use nalgebra::DMatrix;
+use records::consistency::ConsistencyFlag;
 use records::numfmt::sig;
 use records::quality::HitQuality;
 use serde::Serialize;
@@ -260,8 +261,19 @@ pub struct IdentifyReport {
     pub warnings: Vec<String>,
     /// Quality checks of every hit given (empty for a realization).
     pub hit_quality: Vec<HitQuality>,
-    /// Files of the hits left out by `--drop-bad-hits`.
+    /// Hits inconsistent with the others (dead, copied or spiked channels,
+    /// duplicates, level, spectrum or residual against the joint model);
+    /// `record` is the 0-based position in the files given.
+    pub inconsistent_hits: Vec<ConsistencyFlag>,
+    /// Findings of the consistency checks that flag no hit.
+    pub consistency_notes: Vec<String>,
+    /// Files of the hits left out: inconsistent ones, and with
+    /// `--drop-bad-hits` those failing a quality check.
     pub dropped_hits: Vec<String>,
+    /// Positions (0-based) of the dropped hits, for the hit table (files may
+    /// repeat).
+    #[serde(skip)]
+    dropped_positions: Vec<usize>,
     /// Error bars over the hits (null for a realization, with
     /// `--no-uncertainty`, or with fewer than 3 hits).
     pub uncertainty: Option<Jackknife>,
@@ -320,7 +332,10 @@ impl IdentifyReport {
             polarity_flipped: r.polarity_flipped,
             warnings: r.warnings.iter().map(ToString::to_string).collect(),
             hit_quality: Vec::new(),
+            inconsistent_hits: Vec::new(),
+            consistency_notes: Vec::new(),
             dropped_hits: Vec::new(),
+            dropped_positions: Vec::new(),
             uncertainty: None,
             uncertainty_skipped: None,
             mkr_modes: r.mkr_modes.clone(),
@@ -348,11 +363,14 @@ impl IdentifyReport {
         let mut report = IdentifyReport::new(id, source);
         report.warnings = a.warnings.clone();
         report.hit_quality = a.hit_quality.clone();
+        report.inconsistent_hits = a.consistency.flags.clone();
+        report.consistency_notes = a.consistency.notes.clone();
         report.dropped_hits = a
             .dropped
             .iter()
             .map(|&i| a.hit_quality[i].file.clone())
             .collect();
+        report.dropped_positions = a.dropped.clone();
         report.uncertainty = a.uncertainty.clone();
         report.uncertainty_skipped = a.uncertainty_skipped.clone();
         report.refined = a.refinement.as_ref().map(RefinedReport::new);
@@ -552,7 +570,13 @@ impl IdentifyReport {
                     .iter()
                     .map(|c| c.snr_db.map_or("-".to_string(), |v| format!("{v:.0}")))
                     .collect();
-                let checks: Vec<&str> = q.flags.iter().map(|f| f.check.label()).collect();
+                let mut checks: Vec<&str> = q.flags.iter().map(|f| f.check.label()).collect();
+                checks.extend(
+                    self.inconsistent_hits
+                        .iter()
+                        .filter(|f| f.record + 1 == q.hit)
+                        .map(|f| f.kind.label()),
+                );
                 let mut checks_text = if checks.is_empty() {
                     "ok".to_string()
                 } else {
@@ -564,7 +588,7 @@ impl IdentifyReport {
                     }
                     v.join(", ")
                 };
-                if self.dropped_hits.contains(&q.file) {
+                if self.dropped_positions.contains(&(q.hit - 1)) {
                     checks_text.push_str(" (dropped)");
                 }
                 vec![

@@ -35,6 +35,8 @@
 //! # Ok::<(), fsio::FsError>(())
 //! ```
 
+#![deny(missing_docs)]
+
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 

@@ -69,6 +69,8 @@
 //! assert!((result.mass[(0, 0)] - 0.2913).abs() < 1e-3);
 //! ```
 
+#![deny(missing_docs)]
+
 pub mod campaign;
 pub mod era;
 pub mod frf;

@@ -60,14 +60,20 @@ pub enum DataError {
     NoRecords,
     /// The sample interval is not a positive finite number.
     #[error("sample interval dt_s = {dt_s} must be positive and finite")]
-    InvalidSampleInterval { dt_s: f64 },
+    InvalidSampleInterval {
+        /// The sample interval given (s).
+        dt_s: f64,
+    },
     /// A record has no input or no output channel.
     #[error(
         "record {record} has {inputs} input and {outputs} output channels; both must be at least 1"
     )]
     NoChannels {
+        /// The record (hit), 0-based in the order given.
         record: usize,
+        /// Its input channels (rows of `inputs`).
         inputs: usize,
+        /// Its output channels (rows of `outputs`).
         outputs: usize,
     },
     /// Input and output sample counts differ within a record.
@@ -75,8 +81,11 @@ pub enum DataError {
         "record {record} has {input_samples} input samples but {output_samples} output samples"
     )]
     LengthMismatch {
+        /// The record (hit), 0-based in the order given.
         record: usize,
+        /// Samples of its inputs (columns of `inputs`).
         input_samples: usize,
+        /// Samples of its outputs (columns of `outputs`).
         output_samples: usize,
     },
     /// A record's channel counts differ from those of record 0.
@@ -84,33 +93,52 @@ pub enum DataError {
         "record {record} has {inputs} inputs and {outputs} outputs, record 0 has {expected_inputs} and {expected_outputs}"
     )]
     ChannelCountMismatch {
+        /// The record (hit), 0-based in the order given.
         record: usize,
+        /// Its input channels.
         inputs: usize,
+        /// Its output channels.
         outputs: usize,
+        /// Input channels of record 0.
         expected_inputs: usize,
+        /// Output channels of record 0.
         expected_outputs: usize,
     },
     /// A sample is NaN or infinite.
     #[error("record {record}, {channel}, sample {sample} is not finite ({value})")]
     NonFinite {
+        /// The record (hit), 0-based in the order given.
         record: usize,
+        /// The channel holding the first non-finite sample.
         channel: Channel,
+        /// The sample (0-based column).
         sample: usize,
+        /// Its value (NaN or an infinity).
         value: f64,
     },
     /// Every input sample of a record is zero: the record carries no input-output
     /// information (and violates the at-rest assumption if the outputs move).
     #[error("record {record} has no excitation: all its input samples are zero")]
-    NoExcitation { record: usize },
+    NoExcitation {
+        /// The record (hit), 0-based in the order given.
+        record: usize,
+    },
     /// An output channel is zero in every record: that degree of freedom is unobserved.
     #[error("{channel} is zero in every record")]
-    DeadChannel { channel: Channel },
+    DeadChannel {
+        /// The output channel that never moves.
+        channel: Channel,
+    },
     /// A record is too short for the requested orders.
     #[error("record {record} has {samples} samples, {required} are required ({reason})")]
     TooShort {
+        /// The record (hit), 0-based in the order given.
         record: usize,
+        /// Its samples.
         samples: usize,
+        /// Samples needed.
         required: usize,
+        /// What needs them (e.g. `"one Welch segment"`, the OKID regression).
         reason: &'static str,
     },
 }

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use crate::error::{Location, Problem, RecordError};
 use crate::numfmt::{self, NumError};
-use crate::record::{Channel, Format, ReadOptions, RecordFile};
+use crate::record::{Channel, Format, ReadOptions, RecordFile, SampleLines};
 use crate::timeaxis::{self, AxisError, PrintModel};
 
 const BOM: &[u8] = b"\xEF\xBB\xBF";
@@ -211,6 +211,7 @@ pub fn parse_csv(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<Record
             direction: None,
             id_line: None,
             values: Vec::new(),
+            lines: None,
         });
     }
     if channels.is_empty() {
@@ -287,6 +288,12 @@ pub fn parse_csv(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<Record
         return Err(err(Location::line(header_line), Problem::HeaderOnly));
     };
     let nrows = channels[0].values.len();
+    // Data rows are contiguous (a blank line inside them is refused above).
+    for c in &mut channels {
+        c.lines = Some(SampleLines::Rows {
+            first_line: first_data_line,
+        });
+    }
 
     // Sampling.
     let (start_s, dt_s) = match time_scale {

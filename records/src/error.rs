@@ -16,8 +16,11 @@ pub enum RecordError {
     /// chains do not print it twice).
     #[error("{}: cannot {op}: {error}", path.display())]
     Io {
+        /// The file.
         path: PathBuf,
+        /// What was attempted.
         op: IoOp,
+        /// The operating system's error.
         error: std::io::Error,
     },
 
@@ -39,8 +42,11 @@ pub enum RecordError {
     /// The file content is not a usable record.
     #[error("{}: {at}{problem}", path.display())]
     Parse {
+        /// The file.
         path: PathBuf,
+        /// Where in the file (boxed to keep the error small); possibly empty.
         at: Box<Location>,
+        /// What is wrong there.
         problem: Problem,
     },
 
@@ -51,8 +57,12 @@ pub enum RecordError {
         available.join(", ")
     )]
     ChannelNotFound {
+        /// The record file searched.
         path: PathBuf,
+        /// The selector as the user wrote it ([`ChannelSpec`](crate::ChannelSpec) text form).
         spec: String,
+        /// Every channel of the file, as labels `#k name [unit] (node n dir)`
+        /// (1-based `k`), to choose from.
         available: Vec<String>,
     },
 
@@ -63,28 +73,47 @@ pub enum RecordError {
         matches.join(", ")
     )]
     AmbiguousChannel {
+        /// The record file searched.
         path: PathBuf,
+        /// The selector as the user wrote it.
         spec: String,
+        /// The channels it matches, labelled as in `ChannelNotFound`.
         matches: Vec<String>,
     },
 
     /// A channel selector string could not be understood.
     #[error("invalid channel selector '{spec}': {reason}")]
-    InvalidSpec { spec: String, reason: String },
+    InvalidSpec {
+        /// The selector text as given.
+        spec: String,
+        /// What is wrong with it and what was expected.
+        reason: String,
+    },
 
     /// The read options are unusable (e.g. a negative sampling rate).
     #[error("invalid read options: {reason}")]
-    InvalidOptions { reason: String },
+    InvalidOptions {
+        /// Which option is unusable and why.
+        reason: String,
+    },
 
     /// A record handed to a writer cannot be written faithfully.
     #[error("{}: refusing to write: {reason}", path.display())]
-    InvalidRecord { path: PathBuf, reason: String },
+    InvalidRecord {
+        /// The target file (when writing) or the record's own path (when encoding).
+        path: PathBuf,
+        /// What would not read back unchanged (e.g. a name the format cannot hold).
+        reason: String,
+    },
 
     /// Two records of a campaign are not compatible.
     #[error("{}", campaign_message(reference, other, mismatch))]
     Campaign {
+        /// The campaign's first record, which the others must match.
         reference: PathBuf,
+        /// The record that differs.
         other: PathBuf,
+        /// How it differs.
         mismatch: CampaignMismatch,
     },
 
@@ -121,9 +150,15 @@ pub enum RecordError {
 /// Which file operation failed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum IoOp {
+    /// Reading a record file (or its metadata).
     Read,
+    /// Creating the temporary file next to a target. (Writes now go through
+    /// [`fsio`] and fail with [`RecordError::Output`]; kept for callers that
+    /// match on it.)
     CreateTemp,
+    /// Writing and flushing the temporary file.
     Write,
+    /// Renaming the temporary file over the target.
     Replace,
 }
 
@@ -153,6 +188,7 @@ pub struct Location {
 }
 
 impl Location {
+    /// A whole line (1-based, as an editor counts it).
     pub fn line(line: usize) -> Self {
         Location {
             line: Some(line),
@@ -160,6 +196,7 @@ impl Location {
         }
     }
 
+    /// A CSV cell: 1-based line and column, with the column's name as field.
     pub fn cell(line: usize, column: usize, name: &str) -> Self {
         Location {
             line: Some(line),
@@ -169,6 +206,7 @@ impl Location {
         }
     }
 
+    /// True when nothing is known about the place (it then renders as "").
     pub fn is_empty(&self) -> bool {
         self.dataset.is_none()
             && self.line.is_none()
@@ -206,109 +244,219 @@ impl fmt::Display for Location {
 #[non_exhaustive]
 pub enum Problem {
     // ----- any format -----
+    /// Nothing to read: no non-blank line (CSV) or no dataset (UFF).
     #[error("the file is empty")]
     EmptyFile,
+    /// The file starts with a UTF-16 byte-order mark.
     #[error("the file is UTF-16 encoded; save it as UTF-8 (or ASCII) text")]
     Utf16,
+    /// A NUL byte in the first 8 KiB of a file read as text.
     #[error("binary content that is not a UFF file (found a NUL byte)")]
     NotText,
+    /// A value that does not parse as a number.
     #[error("'{text}' is not a number")]
-    NonNumeric { text: String },
+    NonNumeric {
+        /// The text found (an excerpt if long).
+        text: String,
+    },
+    /// A value that parses as NaN or an infinity: records hold finite samples.
     #[error("value '{text}' is NaN or infinite")]
-    NonFinite { text: String },
+    NonFinite {
+        /// The text found.
+        text: String,
+    },
 
     // ----- CSV -----
+    /// A header row and nothing after it.
     #[error("header row but no data rows")]
     HeaderOnly,
+    /// A data cell with nothing in it (a missing sample).
     #[error("empty cell")]
     EmptyCell,
+    /// A data row whose cell count differs from the header's.
     #[error("row has {found} cells but the header has {expected} columns")]
-    RaggedRow { expected: usize, found: usize },
+    RaggedRow {
+        /// Columns of the header.
+        expected: usize,
+        /// Cells of this row.
+        found: usize,
+    },
+    /// A `"` opens a field that the line does not close.
     #[error("quoted field is not closed on this line")]
     UnterminatedQuote,
+    /// A header cell that is empty (after trimming and removing a `[unit]`).
     #[error("column has an empty name")]
     EmptyColumnName,
+    /// An empty line between data rows (it would shift every later sample).
     #[error("blank line inside the data (only trailing blank lines are allowed)")]
     BlankLine,
+    /// A column named like a time axis that is not the first one.
     #[error("a time column must be the first column")]
     MisplacedTimeColumn,
+    /// The time column's unit is neither seconds nor a known fraction of them.
     #[error("time unit '{unit}' is not supported (use s, ms or us)")]
-    UnsupportedTimeUnit { unit: String },
+    UnsupportedTimeUnit {
+        /// The unit as written in the header.
+        unit: String,
+    },
+    /// Only a time column.
     #[error("the file has no channels besides the time column")]
     NoChannels,
+    /// Neither a time column nor a sampling rate in the read options.
     #[error(
         "no time column (first column named time, t, time_s, 'time [s]' ...) and no sampling rate given; pass fs_hz"
     )]
     NoTimeColumnNoFs,
+    /// One data row and no sampling rate in the read options.
     #[error("a single sample does not define a sampling interval; pass fs_hz")]
     SingleSample,
 
     // ----- time axis (CSV time column, uneven UFF abscissa) -----
+    /// A time value that is not after the previous one (all times in seconds).
     #[error("time {value} is not after the previous time {previous} ({})", if value == previous { "repeated" } else { "decreasing" })]
-    TimeNotIncreasing { previous: f64, value: f64 },
+    TimeNotIncreasing {
+        /// The previous time (s).
+        previous: f64,
+        /// This time (s), equal to or before `previous`.
+        value: f64,
+    },
+    /// A step between successive times that is not the mean interval (a
+    /// missing or repeated sample). See the printing tolerance in the crate's
+    /// time-axis check.
     #[error(
         "time step {step} differs from the mean interval {dt} by more than the tolerance {tolerance}: time is not uniformly sampled (missing or repeated sample?)"
     )]
-    NonUniformStep { step: f64, dt: f64, tolerance: f64 },
+    NonUniformStep {
+        /// This step `t[i] - t[i-1]` (s).
+        step: f64,
+        /// The mean interval from the end points (s).
+        dt: f64,
+        /// The largest deviation allowed for this step (s, at most `0.45 dt`).
+        tolerance: f64,
+    },
+    /// A time off the grid `t0 + i dt` fitted to the end points (a slow drift
+    /// that no single step shows).
     #[error(
         "time {value} is off the uniform grid (expected {expected}, dt {dt}, tolerance {tolerance}): time is not uniformly sampled"
     )]
     NonUniformTime {
+        /// The time found (s).
         value: f64,
+        /// Its place on the grid (s).
         expected: f64,
+        /// The mean interval (s).
         dt: f64,
+        /// The largest deviation allowed for this value (s, at most `0.45 dt`).
         tolerance: f64,
     },
+    /// The times are finite but their differences are not.
     #[error("time span overflows a double")]
     TimeOverflow,
+    /// A sampling rate was given in the read options and the file's own time
+    /// axis disagrees with it beyond its printing precision.
     #[error("fs_hz = {fs_hz} was given, but the file's sampling interval is {file_dt_s} s ({} Hz)", 1.0 / file_dt_s)]
-    FsMismatch { fs_hz: f64, file_dt_s: f64 },
+    FsMismatch {
+        /// The sampling rate given (Hz).
+        fs_hz: f64,
+        /// The sampling interval of the file (s).
+        file_dt_s: f64,
+    },
 
     // ----- UFF -----
+    /// A line where a dataset must open or close (`    -1`) holds something else.
     #[error("expected a dataset delimiter line '    -1', found '{found}'")]
-    UffExpectedDelimiter { found: String },
+    UffExpectedDelimiter {
+        /// The line found (an excerpt if long).
+        found: String,
+    },
+    /// The file or the dataset ends before all its records.
     #[error("dataset is truncated: {missing}")]
-    UffTruncated { missing: String },
+    UffTruncated {
+        /// Where it ends, e.g. "its closing '-1' comes before record 7 of 11".
+        missing: String,
+    },
+    /// A header field that does not parse or is out of range (the location
+    /// names the record and field).
     #[error("bad value '{text}': {reason}")]
-    UffBadField { text: String, reason: String },
+    UffBadField {
+        /// The field's text (an excerpt if long).
+        text: String,
+        /// What was expected.
+        reason: String,
+    },
+    /// A dataset 58 that is not a time response (an FRF, a spectrum, ...).
     #[error(
         "function type {func_type} ({}) is not supported; only 1 (time response) is",
         func_type_name(*func_type)
     )]
-    UffUnsupportedFunction { func_type: i64 },
+    UffUnsupportedFunction {
+        /// Record 6 field 1: the UFF function type (1 = time response).
+        func_type: i64,
+    },
+    /// Ordinate values that are not real (complex or of an unknown type).
     #[error(
         "ordinate data type {ord_type} ({}) is not supported; only 2 (real single) and 4 (real double) are",
         ord_type_name(*ord_type)
     )]
-    UffUnsupportedOrdinate { ord_type: i64 },
+    UffUnsupportedOrdinate {
+        /// Record 7 field 1: the ordinate data type (2 real single, 4 real double).
+        ord_type: i64,
+    },
+    /// The ASCII data section holds a different number of values than record 7
+    /// declares.
     #[error(
         "record 7 (line {record7_line}) declares {declared} values, but the data section holds {found}"
     )]
     UffCountMismatch {
+        /// Values declared in record 7 (`u64::MAX` if it could not be read).
         declared: u64,
+        /// Values in the data section.
         found: u64,
+        /// Line of record 7 (1-based).
         record7_line: usize,
     },
+    /// The binary dataset header's byte count disagrees with record 7.
     #[error(
         "binary header declares {declared} data bytes, but record 7 implies {expected} ({values} values of {bytes_per_value} bytes)"
     )]
     UffByteCountMismatch {
+        /// Data bytes declared in the binary header.
         declared: u64,
+        /// Bytes implied by record 7: `values x bytes_per_value` (`u64::MAX` if
+        /// it cannot be computed).
         expected: u64,
+        /// Values declared in record 7 (`u64::MAX` if it could not be read).
         values: u64,
+        /// 4 (real single) or 8 (real double).
         bytes_per_value: u64,
     },
+    /// A binary dataset in a floating-point format or byte order this reader
+    /// does not decode.
     #[error("binary layout not supported: {what}")]
-    UffUnsupportedBinary { what: String },
+    UffUnsupportedBinary {
+        /// The header field and its value, with what is supported.
+        what: String,
+    },
+    /// The file holds UFF datasets, none of them a dataset 58.
     #[error("no dataset 58 (function at nodal DOF) in the file{}", if found.is_empty() { String::new() } else { format!("; datasets found: {}", found.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", ")) })]
-    UffNoDataset58 { found: Vec<u32> },
+    UffNoDataset58 {
+        /// The dataset numbers found, in file order (empty for none).
+        found: Vec<u32>,
+    },
+    /// The channels (datasets) of one file do not share length, start time
+    /// and sampling interval.
     #[error(
         "{what} is {value}, but dataset {first_dataset} has {first_value}; all channels of a file must share length, start and sampling interval"
     )]
     UffDatasetMismatch {
+        /// Which property differs: the number of samples, the sampling interval
+        /// or the start time.
         what: &'static str,
+        /// Its value in this dataset (with its unit).
         value: String,
+        /// The first dataset 58 of the file (1-based position), the reference.
         first_dataset: usize,
+        /// Its value there.
         first_value: String,
     },
 }
@@ -345,8 +493,21 @@ fn ord_type_name(t: i64) -> &'static str {
 /// How two records of a campaign differ.
 #[derive(Debug, Clone, PartialEq)]
 pub enum CampaignMismatch {
-    Length { reference: usize, other: usize },
-    SamplingInterval { reference_s: f64, other_s: f64 },
+    /// Different numbers of samples.
+    Length {
+        /// Samples of the reference (first) record.
+        reference: usize,
+        /// Samples of the other record.
+        other: usize,
+    },
+    /// Sampling intervals that differ by more than
+    /// [`CAMPAIGN_DT_REL_TOL`](crate::CAMPAIGN_DT_REL_TOL) relative.
+    SamplingInterval {
+        /// Interval of the reference (first) record (s).
+        reference_s: f64,
+        /// Interval of the other record (s).
+        other_s: f64,
+    },
 }
 
 fn campaign_message(reference: &Path, other: &Path, mismatch: &CampaignMismatch) -> String {

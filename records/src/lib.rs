@@ -1,3 +1,4 @@
+#![deny(missing_docs)]
 //! Record files of vibration tests: sampled force and acceleration channels
 //! as modal analyzers export them, channel selection into the identifier's
 //! [`Campaign`](ident::Campaign), and the quality checks that judge records
@@ -18,6 +19,10 @@
 //!   [`ChannelSpec`]s into an [`ident::Campaign`].
 //! - [`quality`] checks every hit: a hammer pulse, double hits, clipping,
 //!   pulse length, decay, pre-trigger and SNR.
+//! - [`consistency`] checks every hit against the others: dead and copied
+//!   channels, spikes (named by line), duplicate records, level and
+//!   spectrum against the campaign. A hit that is inconsistent with the
+//!   others is never used silently.
 //! - [`units`] is the one table of unit spellings the readers accept.
 //!
 //! # Conventions
@@ -46,6 +51,7 @@
 //! # Ok::<(), records::RecordError>(())
 //! ```
 
+pub mod consistency;
 mod csv;
 mod error;
 mod format;
@@ -66,7 +72,7 @@ pub use crate::format::{
     CAMPAIGN_DT_REL_TOL, Csv, FORMATS, FileFormat, MAX_FILE_BYTES, Uff58, check_campaign, detect,
     parse_record, read_campaign, read_record, write_csv, write_record, write_uff58,
 };
-pub use crate::record::{Channel, Format, ReadOptions, RecordFile};
+pub use crate::record::{Channel, Format, ReadOptions, RecordFile, SampleLines};
 pub use crate::select::select;
 pub use crate::spec::{ChannelSpec, direction_label, parse_direction};
 pub use crate::uff::{Uff58Encoding, parse_uff58};

@@ -250,6 +250,7 @@ impl fmt::Display for Check {
 /// One failed check of a hit.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Flag {
+    /// The check that failed.
     pub check: Check,
     /// The channel concerned, if the check is per channel.
     pub channel: Option<String>,
@@ -268,14 +269,18 @@ impl fmt::Display for Flag {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Role {
+    /// A force channel.
     Input,
+    /// An acceleration channel.
     Output,
 }
 
 /// Metrics of one channel of a hit.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ChannelQuality {
+    /// The channel's name.
     pub name: String,
+    /// Input (force) or output (acceleration).
     pub role: Role,
     /// Largest deviation from the baseline (the pre-trigger mean).
     pub peak: f64,
@@ -324,10 +329,13 @@ pub struct PulseQuality {
 pub struct HitQuality {
     /// 1-based position in the campaign.
     pub hit: usize,
+    /// The record's label (its file).
     pub file: String,
     /// Sample of the force peak (0-based) and its time from the record
     /// start (null when there is no hit).
     pub hit_sample: Option<usize>,
+    /// Time of the force peak from the record start, s (null when there
+    /// is no hit).
     pub hit_time_s: Option<f64>,
     /// Samples used for the noise estimate (before the hit, minus the guard).
     pub noise_samples: usize,

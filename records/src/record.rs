@@ -23,6 +23,50 @@ pub struct Channel {
     pub id_line: Option<String>,
     /// Samples; every channel of a record has the same number.
     pub values: Vec<f64>,
+    /// Where each sample was written in a text file (for messages that
+    /// name a line); `None` for binary files and records built in memory.
+    pub lines: Option<SampleLines>,
+}
+
+/// The text lines holding a channel's samples, so that a check can name the
+/// line of a suspicious sample.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum SampleLines {
+    /// One sample per line: sample `i` is on line `first_line + i` (CSV).
+    Rows {
+        /// 1-based line of sample 0.
+        first_line: usize,
+    },
+    /// Several values per line (UFF58 ASCII): `starts[k] = (v, line)` says
+    /// that value `v` of the data block is the first one on `line`. Sample
+    /// `i` is value `stride * i + offset` (stride 2, offset 1 for (x, y)
+    /// pairs of uneven abscissae; stride 1, offset 0 otherwise).
+    Values {
+        /// `(first value index, 1-based line)`, ascending.
+        starts: Vec<(usize, usize)>,
+        /// Values per sample.
+        stride: usize,
+        /// Position of the sample's value within its group.
+        offset: usize,
+    },
+}
+
+impl SampleLines {
+    /// The 1-based line holding sample `i`.
+    pub fn line_of(&self, i: usize) -> Option<usize> {
+        match self {
+            SampleLines::Rows { first_line } => Some(first_line + i),
+            SampleLines::Values {
+                starts,
+                stride,
+                offset,
+            } => {
+                let v = stride * i + offset;
+                let k = starts.partition_point(|&(first, _)| first <= v);
+                k.checked_sub(1).map(|k| starts[k].1)
+            }
+        }
+    }
 }
 
 /// File layout a record was read from.
@@ -30,9 +74,12 @@ pub struct Channel {
 pub enum Format {
     /// Delimited text; `delimiter` is `b','`, `b';'` or `b'\t'`.
     Csv {
+        /// The field separator.
         delimiter: u8,
     },
+    /// UFF dataset 58, ASCII.
     Uff58Ascii,
+    /// UFF dataset 58, binary (`58b`).
     Uff58Binary,
 }
 
@@ -40,12 +87,15 @@ pub enum Format {
 /// taken at `start_s + i * dt_s`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RecordFile {
+    /// The file read (or to be written).
     pub path: PathBuf,
+    /// The layout it was read from.
     pub format: Format,
     /// Sampling interval in seconds (finite, positive).
     pub dt_s: f64,
     /// Time of the first sample in seconds.
     pub start_s: f64,
+    /// The channels, in file order.
     pub channels: Vec<Channel>,
 }
 
@@ -58,6 +108,7 @@ pub struct ReadOptions {
 }
 
 impl ReadOptions {
+    /// Options with a sampling rate for files without a time axis.
     pub fn with_fs_hz(fs_hz: f64) -> Self {
         ReadOptions { fs_hz: Some(fs_hz) }
     }
@@ -97,10 +148,12 @@ impl RecordFile {
         self.channels.first().map_or(0, |c| c.values.len())
     }
 
+    /// Whether the record has no samples.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
 
+    /// Sampling rate, Hz.
     pub fn fs_hz(&self) -> f64 {
         1.0 / self.dt_s
     }

@@ -15,11 +15,18 @@ use crate::error::RecordError;
 /// | `#3` | [`ChannelSpec::Index`] (1-based, as listed in error messages) |
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum ChannelSpec {
+    /// A channel name, compared case-insensitively without its `[unit]`.
     Name(String),
+    /// A UFF response node and direction (record 6 of dataset 58).
     NodeDir {
+        /// The node number as the file gives it.
         node: i64,
+        /// The direction: `1..6 = +X, +Y, +Z, +RX, +RY, +RZ`, negative for
+        /// minus, 0 for a scalar ([`parse_direction`]).
         direction: i32,
     },
+    /// (Part of) a UFF ID line: an exact match first, else a unique
+    /// case-insensitive substring.
     IdLine(String),
     /// 1-based position among the channels (the time column excluded).
     Index(usize),

@@ -31,7 +31,7 @@ use std::path::Path;
 
 use crate::error::{Location, Problem, RecordError};
 use crate::numfmt::{self, NumError};
-use crate::record::{Channel, Format, ReadOptions, RecordFile};
+use crate::record::{Channel, Format, ReadOptions, RecordFile, SampleLines};
 use crate::spec::direction_label;
 use crate::timeaxis::{self, PrintModel};
 
@@ -648,6 +648,8 @@ fn read_dataset58(
     let mut values: Vec<f64>;
     let mut x_model = PrintModel::exact();
     let data_line = cur.line;
+    // (first value index, line) of every ASCII data line, for messages.
+    let mut line_starts: Vec<(usize, usize)> = Vec::new();
     match &binary {
         Some(b) => {
             if b.fp_format != 2 {
@@ -780,6 +782,7 @@ fn read_dataset58(
                     break n;
                 }
                 let t = text(l);
+                line_starts.push((values.len(), n));
                 for (k, tok) in data_tokens(&t, widths).into_iter().enumerate() {
                     let v = numfmt::parse_fortran(tok).map_err(|e| {
                         let at = ctx.at(n, format!("value {} on the line", k + 1));
@@ -857,6 +860,11 @@ fn read_dataset58(
             direction: Some(direction),
             id_line: meaningful(&id1).map(str::to_string),
             values: ys,
+            lines: (!line_starts.is_empty()).then_some(SampleLines::Values {
+                starts: line_starts,
+                stride: if r7.even { 1 } else { 2 },
+                offset: if r7.even { 0 } else { 1 },
+            }),
         },
     })
 }
@@ -1038,7 +1046,8 @@ pub fn parse_uff58(
     })
 }
 
-/// How [`super::write_uff58_as`] encodes the values.
+/// How [`write_uff58`](crate::write_uff58) and the [`Uff58`](crate::Uff58)
+/// format encode the values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Uff58Encoding {
     /// ASCII as the format prescribes: real double, 4E20.12 per line.

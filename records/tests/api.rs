@@ -23,6 +23,7 @@ fn record(n: usize, dt: f64) -> RecordFile {
                 direction: Some(1),
                 id_line: None,
                 values: (0..n).map(|i| (i * (k + 1)) as f64 * 0.5).collect(),
+                lines: None,
             })
             .collect(),
     }

@@ -328,6 +328,7 @@ fn record(channels: Vec<(&str, Option<&str>, Vec<f64>)>, dt: f64, start: f64) ->
                 direction: None,
                 id_line: None,
                 values: v,
+                lines: None,
             })
             .collect(),
     }

@@ -76,6 +76,7 @@ fn sample(channels: usize, n: usize, dt: f64, start: f64) -> RecordFile {
                 direction: Some(1),
                 id_line: None,
                 values: (0..n).map(|i| ((i + k) as f64).sqrt() - 2.0).collect(),
+                lines: None,
             })
             .collect(),
     }

@@ -227,6 +227,7 @@ fn sample_record() -> RecordFile {
                 direction: Some(1),
                 id_line: None,
                 values: mk(0),
+                lines: None,
             },
             Channel {
                 name: "acc1".into(),
@@ -235,6 +236,7 @@ fn sample_record() -> RecordFile {
                 direction: Some(-1),
                 id_line: None,
                 values: mk(1),
+                lines: None,
             },
             Channel {
                 name: "acc 2, roof".into(),
@@ -243,6 +245,7 @@ fn sample_record() -> RecordFile {
                 direction: None,
                 id_line: None,
                 values: mk(2),
+                lines: None,
             },
         ],
     }

@@ -42,6 +42,68 @@
 //! - tables: `table.setup`, `table.comparison[data-table]` whose error cells
 //!   carry `data-rel-error` (full precision, or `none`), `table.failures`
 //!   (`data-panel`), `table.efficiency`.
+//!
+//! # Example
+//!
+//! A study with no representative campaign and one accuracy measure over
+//! three noise levels:
+//!
+//! ```
+//! use reports::{Accuracy, Panel, Quantity, Report, SetupRow, Study};
+//!
+//! let quantity = Quantity {
+//!     key: "f1_err".into(),
+//!     label: "f1 relative error".into(),
+//!     unit: String::new(),
+//!     group: "frequency".into(),
+//!     median: vec![1e-6, 2e-4, 2e-3],
+//!     p5: vec![1e-7, 5e-5, 6e-4],
+//!     p95: vec![3e-6, 6e-4, 5e-3],
+//!     bound: None,
+//!     scale: None, // the values span decades: a log axis
+//! };
+//! let study = Study {
+//!     name: "paper-case1".into(),
+//!     description: String::new(),
+//!     seed: 1,
+//!     setup: vec![SetupRow { label: "Sampling".into(), value: "64 Hz, 2048 samples".into() }],
+//!     representative: None,
+//!     accuracy: Accuracy {
+//!         axis_name: None,
+//!         panels: vec![Panel {
+//!             axis_value: None,
+//!             noise_levels: vec![0.0, 0.01, 0.05],
+//!             trials: vec![20, 20, 20],
+//!             failure_rate: vec![0.0, 0.0, 0.05],
+//!             failure_reasons: Vec::new(),
+//!             quantities: vec![quantity],
+//!         }],
+//!         efficiency: Vec::new(),
+//!     },
+//! };
+//! let report = Report {
+//!     title: "frameid report".into(),
+//!     frameid_version: "0.1.0".into(),
+//!     command: "frameid report out/sweep".into(),
+//!     studies: vec![study],
+//! };
+//!
+//! let html = reports::render(&report)?;
+//! assert!(html.starts_with("<!DOCTYPE html>"));
+//! assert!(html.contains(r#"<article class="study" id="study-1""#));
+//! // The quantity's chart: an inline SVG inside its figure, no script.
+//! let chart = html.find(r#"data-quantity="f1_err""#).expect("the f1_err chart");
+//! assert!(html[chart..].contains("<svg"));
+//! assert!(!html.contains("<script"));
+//! // Deterministic: the same report gives the same bytes.
+//! assert_eq!(reports::render(&report)?, html);
+//!
+//! // Medians that do not match the noise levels are refused.
+//! let mut broken = report.clone();
+//! broken.studies[0].accuracy.panels[0].quantities[0].median.pop();
+//! assert!(matches!(reports::render(&broken), Err(reports::ReportError::Inconsistent { .. })));
+//! # Ok::<(), reports::ReportError>(())
+//! ```
 
 #![deny(missing_docs)]
 

@@ -4,8 +4,9 @@
 use std::io::Write;
 
 use anyhow::{Context, Result, anyhow, bail};
+use records::consistency::ByLine;
 use records::{ChannelSpec, ReadOptions, RecordFile};
-use study::analysis::{AnalysisSettings, Screening, analyze, identifier};
+use study::analysis::{AnalysisSettings, Screening, analyze_located, identifier};
 
 use crate::cli::IdentifyArgs;
 use crate::output::{Collocated, IdentifyReport, Source};
@@ -146,6 +147,6 @@ fn identify_records(args: &IdentifyArgs) -> Result<IdentifyReport> {
         refine: args.refine.then_some(args.parametrization),
         ..AnalysisSettings::default()
     };
-    let analysis = analyze(&campaign, &settings)?;
+    let analysis = analyze_located(&campaign, &ByLine(&files), &settings)?;
     Ok(IdentifyReport::from_analysis(&analysis))
 }

@@ -7,21 +7,32 @@
 
 use ident::refine::{Refinement, Refiner, SecondOrder};
 use ident::{Campaign, Identification, Identifier, Jackknife, ModelOrder, ObserverOrder};
+use records::consistency::{
+    ByPosition, Consistency, ConsistencyFlag, ConsistencySettings, Inconsistency, Locate,
+    check_consistency,
+};
 use records::numfmt::sig;
 use records::quality::{HitQuality, QualitySettings, assess_campaign};
 
 use crate::scenario::ParametrizationSetting;
 
-/// Which hits to identify after the quality checks.
+/// Which hits to identify after the quality and consistency checks.
+///
+/// Whatever the screening, a hit that is inconsistent with the others
+/// ([`records::consistency`]) is never used silently: it is dropped with a
+/// warning, or the campaign is refused under [`Screening::Strict`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Screening {
-    /// Keep every hit (failed checks are warnings); refuse hits without a
-    /// pulse.
+    /// Keep every hit that fails a quality check of its own (the failures
+    /// are warnings); refuse hits without a pulse; drop inconsistent hits
+    /// with a warning.
     #[default]
     Warn,
-    /// Refuse the campaign if any hit fails a check (`--strict`).
+    /// Refuse the campaign if any hit fails a check or is inconsistent
+    /// (`--strict`).
     Strict,
-    /// Identify without the hits that fail a check (`--drop-bad-hits`).
+    /// Identify without the hits that fail a check or are inconsistent
+    /// (`--drop-bad-hits`).
     DropBad,
 }
 
@@ -32,6 +43,8 @@ pub struct AnalysisSettings {
     pub identifier: Identifier,
     /// Thresholds of the hit quality checks.
     pub quality: QualitySettings,
+    /// Thresholds of the checks of every hit against the others.
+    pub consistency: ConsistencySettings,
     /// What to do with hits that fail a check.
     pub screening: Screening,
     /// Error bars by the jackknife over the hits.
@@ -46,6 +59,7 @@ impl Default for AnalysisSettings {
         AnalysisSettings {
             identifier: Identifier::default(),
             quality: QualitySettings::default(),
+            consistency: ConsistencySettings::default(),
             screening: Screening::Warn,
             uncertainty: true,
             refine: None,
@@ -64,6 +78,9 @@ pub struct Analysis {
     pub collocated: ident::CollocatedPair,
     /// Quality of every hit given, dropped or not, in the order given.
     pub hit_quality: Vec<HitQuality>,
+    /// Every hit checked against the others: the flags (records by their
+    /// position in the campaign given, residual flags included) and notes.
+    pub consistency: Consistency,
     /// Positions (in the campaign given) of the hits left out.
     pub dropped: Vec<usize>,
     /// Error bars, if computed.
@@ -81,6 +98,12 @@ pub struct Analysis {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum AnalysisError {
+    /// A threshold of the checks is out of range.
+    #[error("{message}")]
+    Settings {
+        /// The field and what is wrong.
+        message: String,
+    },
     /// Hits without a usable pulse (fatal quality checks).
     #[error(
         "{}\n(remove the record, or pass --drop-bad-hits to identify without it)",
@@ -101,6 +124,31 @@ pub enum AnalysisError {
         /// Hits given.
         hits: usize,
         /// The failed checks, per hit.
+        lines: Vec<String>,
+    },
+    /// `--strict` and some hits are inconsistent with the others.
+    #[error(
+        "--strict: {failing} of {hits} hits are inconsistent with the others:\n{}",
+        lines.join("\n")
+    )]
+    StrictInconsistent {
+        /// Hits flagged.
+        failing: usize,
+        /// Hits given.
+        hits: usize,
+        /// The flags, one per line, naming file and channel.
+        lines: Vec<String>,
+    },
+    /// Every hit is inconsistent (or fails a check under
+    /// `--drop-bad-hits`): none remains.
+    #[error(
+        "all {hits} hits are inconsistent with the others or fail the checks, none remain to identify:\n{}",
+        lines.join("\n")
+    )]
+    NoneConsistent {
+        /// Hits given.
+        hits: usize,
+        /// The flags, one per line.
         lines: Vec<String>,
     },
     /// `--drop-bad-hits` and every hit fails a check.
@@ -183,20 +231,106 @@ pub enum AnalysisError {
 }
 
 /// Checks every hit, screens them, identifies the hits kept jointly, and
-/// adds error bars and the refinement as `settings` ask.
+/// adds error bars and the refinement as `settings` ask. Samples are named
+/// by position in messages; [`analyze_located`] names their file lines.
 pub fn analyze(
     campaign: &Campaign,
     settings: &AnalysisSettings,
 ) -> Result<Analysis, AnalysisError> {
+    analyze_located(campaign, &ByPosition, settings)
+}
+
+/// [`analyze`], with `locate` naming the place of a sample in its file
+/// (a line of a CSV or UFF file) in the messages of the consistency checks.
+///
+/// The stages, in order: the quality checks of every hit on its own; the
+/// checks of every hit against the others (inconsistent hits are dropped
+/// with a warning, or refused under `--strict`); the quality screening of
+/// the remaining hits; the joint identification; the residual of every hit
+/// against the joint model (hits whose residual stands out are dropped, and
+/// the rest identified again); error bars; refinement.
+pub fn analyze_located(
+    campaign: &Campaign,
+    locate: &dyn Locate,
+    settings: &AnalysisSettings,
+) -> Result<Analysis, AnalysisError> {
+    settings
+        .consistency
+        .check()
+        .map_err(|message| AnalysisError::Settings { message })?;
     let hit_quality = assess_campaign(campaign, &settings.quality);
-    let keep = screen_hits(&hit_quality, settings.screening)?;
-    let dropped: Vec<usize> = (0..campaign.len()).filter(|i| !keep.contains(i)).collect();
-    let c = campaign.subset(&keep);
-    check_orders(&c, &settings.identifier)?;
+    let mut consistency = check_consistency(campaign, locate, &settings.consistency);
+    let inconsistent = consistency.flagged_records();
+    let flag_lines = |flags: &[ConsistencyFlag]| -> Vec<String> {
+        flags.iter().map(|f| format!("  {f}")).collect()
+    };
+    if settings.screening == Screening::Strict && !inconsistent.is_empty() {
+        return Err(AnalysisError::StrictInconsistent {
+            failing: inconsistent.len(),
+            hits: campaign.len(),
+            lines: flag_lines(&consistency.flags),
+        });
+    }
+    // The quality screening sees the consistent hits only.
+    let consistent: Vec<usize> = (0..campaign.len())
+        .filter(|i| !inconsistent.contains(i))
+        .collect();
+    if consistent.is_empty() {
+        return Err(AnalysisError::NoneConsistent {
+            hits: campaign.len(),
+            lines: flag_lines(&consistency.flags),
+        });
+    }
+    let quality_of: Vec<HitQuality> = consistent.iter().map(|&i| hit_quality[i].clone()).collect();
+    let mut keep: Vec<usize> = screen_hits(&quality_of, settings.screening)?
+        .into_iter()
+        .map(|i| consistent[i])
+        .collect();
     let id = &settings.identifier;
-    let result = id
+    let mut c = campaign.subset(&keep);
+    check_orders(&c, id)?;
+    let mut result = id
         .identify(&c.records, c.dt_s)
         .map_err(|e| identification_error(e, &c, id))?;
+    // Every kept hit against the joint model: a hit whose outputs do not
+    // follow it is dropped (if such hits are a minority) and the rest
+    // identified again, once.
+    let mut residual_notes = Vec::new();
+    if keep.len() >= settings.consistency.min_hits {
+        let flags = residual_flags(&c, &keep, &result, &settings.consistency);
+        let odd: Vec<usize> = {
+            let mut v: Vec<usize> = flags.iter().map(|f| f.record).collect();
+            v.dedup();
+            v
+        };
+        if !odd.is_empty() {
+            if settings.screening == Screening::Strict {
+                return Err(AnalysisError::StrictInconsistent {
+                    failing: odd.len(),
+                    hits: campaign.len(),
+                    lines: flag_lines(&flags),
+                });
+            }
+            if 2 * odd.len() < keep.len() {
+                keep.retain(|i| !odd.contains(i));
+                consistency.flags.extend(flags);
+                consistency.flags.sort_by_key(|f| f.record);
+                c = campaign.subset(&keep);
+                result = id
+                    .identify(&c.records, c.dt_s)
+                    .map_err(|e| identification_error(e, &c, id))?;
+            } else {
+                residual_notes.push(format!(
+                    "the residuals of {} of {} hits stand out against the joint model; as they are not a minority no hit is dropped (is the campaign a mix of set-ups?): {}",
+                    odd.len(),
+                    keep.len(),
+                    flags.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")
+                ));
+            }
+        }
+    }
+    consistency.notes.extend(residual_notes);
+    let dropped: Vec<usize> = (0..campaign.len()).filter(|i| !keep.contains(i)).collect();
     check_modes_against_outputs(&result, &c)?;
     let (uncertainty, uncertainty_skipped) = if settings.uncertainty {
         match ident::jackknife(id, &c, &result) {
@@ -206,20 +340,42 @@ pub fn analyze(
     } else {
         (None, Some("--no-uncertainty".to_string()))
     };
-    // Warnings: the quality checks first (every hit, dropped or not), then
-    // the identification's with hits named by file.
+    // Warnings: the quality checks first (every hit, dropped or not), the
+    // consistency flags and notes, the hits dropped, then the
+    // identification's with hits named by file.
     let mut warnings = quality_warnings(&hit_quality);
+    warnings.extend(consistency.flags.iter().map(ToString::to_string));
+    warnings.extend(
+        consistency
+            .notes
+            .iter()
+            .map(|n| format!("consistency: {n}")),
+    );
     if !dropped.is_empty() {
         let reasons: Vec<String> = dropped
             .iter()
-            .map(|&i| &hit_quality[i])
-            .map(|q| {
-                let checks: Vec<&str> = q.failed_checks().iter().map(|c| c.label()).collect();
-                format!("{} ({})", q.file, checks.join(", "))
+            .map(|&i| {
+                let mut why: Vec<String> = consistency
+                    .flags
+                    .iter()
+                    .filter(|f| f.record == i)
+                    .map(|f| match &f.channel {
+                        Some(ch) => format!("{ch}: {}", f.kind),
+                        None => f.kind.to_string(),
+                    })
+                    .collect();
+                why.extend(
+                    hit_quality[i]
+                        .failed_checks()
+                        .iter()
+                        .map(|c| c.label().to_string()),
+                );
+                why.dedup();
+                format!("{} ({})", hit_quality[i].file, why.join(", "))
             })
             .collect();
         warnings.push(format!(
-            "dropped {} of {} hits: {}",
+            "dropped {} of {} hits: {} (--strict refuses the campaign instead)",
             dropped.len(),
             hit_quality.len(),
             reasons.join("; ")
@@ -248,12 +404,86 @@ pub fn analyze(
         identification: result,
         collocated: id.collocated,
         hit_quality,
+        consistency,
         dropped,
         uncertainty,
         uncertainty_skipped,
         refinement,
         warnings,
     })
+}
+
+/// The residual of every hit of `c` (hit `i` of `c` is record `index[i]` of
+/// the campaign given) against the joint model `result`: per output, the
+/// energy of `y - s y_model` over that of the model's response `y_model` to
+/// the hit's inputs, with one sign `s` for the campaign (the realization's
+/// input polarity). A hit is flagged when an output's residual exceeds both
+/// `residual_factor` times the median over the hits and `residual_floor`.
+fn residual_flags(
+    c: &Campaign,
+    index: &[usize],
+    result: &Identification,
+    settings: &ConsistencySettings,
+) -> Vec<ConsistencyFlag> {
+    let model = &result.realization;
+    let m = c.outputs.len();
+    let predicted: Vec<nalgebra::DMatrix<f64>> = c
+        .records
+        .iter()
+        .map(|r| model.simulate(&r.inputs))
+        .collect();
+    let cross: f64 = c
+        .records
+        .iter()
+        .zip(&predicted)
+        .map(|(r, p)| r.outputs.dot(p))
+        .sum();
+    let sign = if cross < 0.0 { -1.0 } else { 1.0 };
+    // shares[j][k]: output j, hit k.
+    let shares: Vec<Vec<f64>> = (0..m)
+        .map(|j| {
+            c.records
+                .iter()
+                .zip(&predicted)
+                .map(|(r, p)| {
+                    let (mut d, mut e) = (0.0, 0.0);
+                    for (y, q) in r.outputs.row(j).iter().zip(p.row(j).iter()) {
+                        let q = sign * q;
+                        d += (y - q) * (y - q);
+                        e += q * q;
+                    }
+                    if e > 0.0 { d / e } else { f64::INFINITY }
+                })
+                .collect()
+        })
+        .collect();
+    let mut flags = Vec::new();
+    for k in 0..c.len() {
+        for j in 0..m {
+            let med = records::consistency::median(&shares[j]);
+            let r = shares[j][k];
+            if r > settings.residual_factor * med && r > settings.residual_floor {
+                flags.push(ConsistencyFlag {
+                    record: index[k],
+                    file: c.label(k),
+                    channel: Some(c.outputs[j].clone()),
+                    kind: Inconsistency::Residual,
+                    message: format!(
+                        "does not follow the joint model of the hits: residual {} % of the predicted response energy, {}x the median {} % over the {} hits (limits {}x and {} %): its transfer from {} differs (gain, sensor moved or swapped, a changed set-up?)",
+                        sig(100.0 * r, 3),
+                        sig(r / med.max(f64::MIN_POSITIVE), 3),
+                        sig(100.0 * med, 3),
+                        c.len(),
+                        sig(settings.residual_factor, 3),
+                        sig(100.0 * settings.residual_floor, 3),
+                        c.inputs.join(", ")
+                    ),
+                });
+                break;
+            }
+        }
+    }
+    flags
 }
 
 /// Maximum-likelihood M, K and damping from all hits, started from MKR's M

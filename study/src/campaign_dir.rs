@@ -21,6 +21,7 @@ pub fn hit_record(campaign: &Campaign, hit: usize, path: PathBuf, format: Format
         direction: Some(1),
         id_line: None,
         values: h.force.clone(),
+        lines: None,
     }];
     for (i, acc) in h.accelerations.iter().enumerate() {
         channels.push(Channel {
@@ -30,6 +31,7 @@ pub fn hit_record(campaign: &Campaign, hit: usize, path: PathBuf, format: Format
             direction: Some(1),
             id_line: None,
             values: acc.clone(),
+            lines: None,
         });
     }
     RecordFile {

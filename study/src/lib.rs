@@ -1,3 +1,4 @@
+#![deny(missing_docs)]
 //! The frameid harness: scenarios with known truth, simulated campaigns,
 //! Monte Carlo sweeps over noise levels, shards and merge, scores against
 //! the truth and the Cramér–Rao bound, and the data of the HTML report.

@@ -19,16 +19,27 @@ pub struct Scenario {
     /// Short name used in reports; defaults to the file stem.
     #[serde(default)]
     pub name: String,
+    /// Free text shown in reports; default empty.
     #[serde(default)]
     pub description: String,
+    /// `[structure]`: the frame, as M and K matrices or from storey and floor
+    /// geometry (lumped masses include the sensors).
     pub structure: StructureSpec,
+    /// `[damping]`: how the damping matrix is built from M and K; default
+    /// none.
     #[serde(default = "no_damping")]
     pub damping: DampingSpec,
+    /// `[[dashpots]]`: extra viscous dashpots across storeys, added to the
+    /// damping matrix (the damping is then not proportional).
     #[serde(default)]
     pub dashpots: Vec<Dashpot>,
+    /// `[campaign]`: hits, hammer, sampling, acquisition chain, rig effects
+    /// and noise of the simulated test.
     pub campaign: CampaignSettings,
+    /// `[identification]`: how campaigns are identified.
     #[serde(default)]
     pub identification: IdentificationSettings,
+    /// `[sweep]`: the Monte Carlo sweep over noise levels.
     #[serde(default)]
     pub sweep: SweepSettings,
 }
@@ -127,6 +138,8 @@ pub struct SweepSettings {
     /// Trials (simulated campaigns) per noise level and axis value.
     #[serde(default = "default_trials")]
     pub trials: usize,
+    /// Base seed of every trial's ChaCha8 streams (see [`crate::sweep`] for
+    /// how trial seeds derive from it); default 1.
     #[serde(default = "default_seed")]
     pub seed: u64,
     /// Optional second axis.
@@ -159,7 +172,10 @@ impl Default for SweepSettings {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SweepAxis {
+    /// The setting varied.
     pub setting: AxisSetting,
+    /// Its values, in the order swept (numbers for `hits` and
+    /// `pulse_duration_s`, `"zoh"`/`"bandlimited"` for `intersample`).
     pub values: Vec<AxisValue>,
 }
 
@@ -179,7 +195,9 @@ pub enum AxisSetting {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum AxisValue {
+    /// A number (TOML integer or float): hits, or a pulse duration in s.
     Number(f64),
+    /// A string: an intersample assumption.
     Text(String),
 }
 
@@ -248,8 +266,13 @@ pub enum ScenarioError {
 /// A scenario with the file it came from, checked and ready to simulate.
 #[derive(Debug, Clone)]
 pub struct LoadedScenario {
+    /// The file it was read from (`scenarios/<name>` for a built-in one);
+    /// used in messages.
     pub path: PathBuf,
+    /// The scenario as written (its `name` filled from the file stem if
+    /// empty).
     pub scenario: Scenario,
+    /// The structural model built from it (M, K, damping), checked.
     pub model: Model,
 }
 

@@ -49,7 +49,12 @@ pub enum Correlation {
     None,
     /// ERA/DC: factor the block Hankel matrix of `R(k) = H(k) H(0)^T` with `xi + 1` block
     /// rows and `zeta + 1` block columns.
-    Dc { xi: usize, zeta: usize },
+    Dc {
+        /// Block rows of the correlation Hankel matrix minus one (`xi = 0`: one block row).
+        xi: usize,
+        /// Block columns of the correlation Hankel matrix minus one.
+        zeta: usize,
+    },
 }
 
 /// Model order (state dimension) of the realization.
@@ -59,7 +64,10 @@ pub enum ModelOrder {
     Fixed(usize),
     /// Largest gap `ln s_n - ln s_(n+1)` of the Hankel singular values of `H(0)` over the
     /// even orders `n = 2, 4, ..., max`.
-    Auto { max: usize },
+    Auto {
+        /// Largest order considered (states, at least 2).
+        max: usize,
+    },
 }
 
 impl ModelOrder {
@@ -134,19 +142,41 @@ impl HankelShape {
 pub enum EraError {
     /// Parameters out of range.
     #[error("invalid ERA parameters: {reason}")]
-    InvalidParams { reason: String },
+    InvalidParams {
+        /// Which parameter is out of range and what it must be.
+        reason: String,
+    },
     /// Not enough Markov parameters (or data) for the Hankel matrices.
     #[error("ERA needs {required} Markov parameters, {available} are available")]
-    TooFewMarkov { available: usize, required: usize },
+    TooFewMarkov {
+        /// Markov parameters given (`Y_0 ..`, i.e. the samples of the longest record).
+        available: usize,
+        /// Markov parameters the Hankel matrices need ([`HankelShape::markov_needed`]).
+        required: usize,
+    },
     /// The requested order exceeds what the Hankel matrix can reveal.
     #[error("order {order} exceeds the largest order {max} the Hankel matrix supports")]
-    OrderTooLarge { order: usize, max: usize },
+    OrderTooLarge {
+        /// The requested model order (states).
+        order: usize,
+        /// The largest order the factored matrix supports (its smaller dimension).
+        max: usize,
+    },
     /// The Hankel matrix has fewer nonzero singular values than the order.
     #[error("Hankel matrix has rank {rank}, below the order {order}")]
-    RankDeficient { order: usize, rank: usize },
+    RankDeficient {
+        /// The requested model order (states).
+        order: usize,
+        /// Singular values above the numerical rank threshold (or columns kept by the
+        /// truncated least squares that recovers the controllability matrix in ERA/DC).
+        rank: usize,
+    },
     /// `A` is singular, so `B` cannot be recovered at a nonzero Markov offset.
     #[error("the identified A is singular; B cannot be recovered at Markov offset {offset}")]
-    SingularStateMatrix { offset: usize },
+    SingularStateMatrix {
+        /// The Markov offset `k0`: `B` is `A^-k0` times the first block column.
+        offset: usize,
+    },
     /// A decomposition failed.
     #[error(transparent)]
     Linalg(#[from] LinalgError),

@@ -19,20 +19,29 @@ pub enum LinalgError {
     /// An iterative decomposition did not converge within its iteration budget.
     #[error("{algorithm} did not converge for a {rows} x {cols} matrix")]
     NoConvergence {
+        /// The decomposition that stopped (e.g. `"complex Schur decomposition"`).
         algorithm: &'static str,
+        /// Rows of the matrix being decomposed.
         rows: usize,
+        /// Columns of the matrix being decomposed.
         cols: usize,
     },
     /// The matrix contains NaN or infinite entries.
     #[error("{what} has a non-finite entry at ({row}, {col})")]
     NonFinite {
+        /// The role of the matrix in the caller (e.g. `"matrix"`, `"Hankel matrix"`).
         what: &'static str,
+        /// Row of the first non-finite entry (0-based, column-major scan).
         row: usize,
+        /// Column of the first non-finite entry (0-based).
         col: usize,
     },
     /// A square matrix that must be inverted is singular to working precision.
     #[error("{what} is singular to working precision")]
-    Singular { what: &'static str },
+    Singular {
+        /// The role of the matrix in the caller.
+        what: &'static str,
+    },
 }
 
 /// Eigenvalues and right eigenvectors: `A V = V diag(values)`.

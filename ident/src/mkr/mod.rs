@@ -96,43 +96,79 @@ pub enum MkrError {
         "collocated pair (output {output}, input {input}) is out of range for {outputs} outputs and {inputs} inputs"
     )]
     CollocatedOutOfRange {
+        /// The requested collocated output (0-based).
         output: usize,
+        /// The requested collocated input (0-based).
         input: usize,
+        /// Outputs of the realization (rows of `D`).
         outputs: usize,
+        /// Inputs of the realization (columns of `D`).
         inputs: usize,
     },
     /// MKR needs exactly one mode per degree of freedom.
     #[error("MKR needs {dofs} modes (one per degree of freedom), {modes} given")]
-    ModeCountMismatch { modes: usize, dofs: usize },
+    ModeCountMismatch {
+        /// Modes given (one per complex-conjugate pair).
+        modes: usize,
+        /// Degrees of freedom, i.e. outputs (an accelerometer at every DOF).
+        dofs: usize,
+    },
     /// A pole is not in the upper half plane or is zero.
     #[error("mode {mode} has pole {pole}, expected Im > 0")]
-    InvalidPole { mode: usize, pole: C64 },
+    InvalidPole {
+        /// Position of the mode in the list given (0-based).
+        mode: usize,
+        /// Its continuous pole (rad/s): non-finite or with `Im <= 0`.
+        pole: C64,
+    },
     /// The driving-point residues disagree on the polarity.
     #[error(
         "driving-point residues have mixed polarity: Im(W[k,j]^2) per mode = {imaginary_parts:?} (all must be negative)"
     )]
-    InconsistentPolarity { imaginary_parts: Vec<f64> },
+    InconsistentPolarity {
+        /// `Im(W[k,j]^2)` per mode, in the order given; a physical system has all of them
+        /// negative, an inverted sensor or force all positive.
+        imaginary_parts: Vec<f64>,
+    },
     /// The polarity is inverted and the policy refuses to flip it.
     #[error(
         "input or collocated output polarity is inverted (Im(W[k,j]^2) > 0 for every mode, D[k,l] = {driving_point}); flip the sign of the force or of the accelerometer"
     )]
-    PolarityInverted { driving_point: f64 },
+    PolarityInverted {
+        /// The driving-point feedthrough `D[k,l]` (m/s^2 per N, `(M^-1)[k,k]`, positive for
+        /// a correctly wired pair).
+        driving_point: f64,
+    },
     /// A matrix that must be inverted is singular.
     #[error("W Lc^{power} W^T is singular")]
-    Singular { power: i32 },
+    Singular {
+        /// The power `p` of `W Lc^p W^T` (1 for the mass, -1 for the stiffness).
+        power: i32,
+    },
     /// Complex parts that should cancel do not.
     #[error("W Lc^{power} W^T has a relative imaginary part {ratio:e}")]
-    NotReal { power: i32, ratio: f64 },
+    NotReal {
+        /// The power `p` of `W Lc^p W^T` (1, -1 or 2).
+        power: i32,
+        /// `||Im||_F / ||Re||_F` of the product, above [`MAX_IMAGINARY_RATIO`] or non-finite.
+        ratio: f64,
+    },
     /// M or K is not symmetric positive definite.
     #[error("{matrix} matrix is not positive definite (Cholesky pivot {pivot} = {value:e})")]
     NotPositiveDefinite {
+        /// The mass or the stiffness matrix.
         matrix: MatrixKind,
+        /// The first non-positive Cholesky pivot (0-based DOF).
         pivot: usize,
+        /// Its value (the Schur-complement diagonal entry, in kg or N/m).
         value: f64,
     },
     /// A result is not finite.
     #[error("{matrix} matrix has non-finite entries")]
-    NonFinite { matrix: MatrixKind },
+    NonFinite {
+        /// The matrix with NaN or infinite entries.
+        matrix: MatrixKind,
+    },
 }
 
 /// Result of MKR.

@@ -416,13 +416,19 @@ impl ModalModel {
 pub enum ModalError {
     /// Parameters out of range.
     #[error("invalid modal parameters: {reason}")]
-    InvalidParams { reason: String },
+    InvalidParams {
+        /// Which parameter is out of range and what it must be.
+        reason: String,
+    },
     /// The eigenvector matrix is singular (defective `A`).
     #[error("the state matrix is defective: its eigenvector matrix is singular")]
     DefectiveEigenvectors,
     /// A modal quantity is not finite.
     #[error("mode near {frequency_hz} Hz has non-finite parameters")]
-    NonFinite { frequency_hz: f64 },
+    NonFinite {
+        /// Natural frequency of the offending mode (Hz; itself possibly NaN).
+        frequency_hz: f64,
+    },
     /// A decomposition failed.
     #[error(transparent)]
     Linalg(#[from] LinalgError),

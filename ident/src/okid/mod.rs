@@ -78,7 +78,10 @@ pub enum ObserverOrder {
     /// Minimize the Bayesian information criterion over `p = 1..=max`. The residual sum of
     /// squares is floored at `(1e-12)^2 ||Y||^2` (scaled data), so noise-free data stop at
     /// the first order that fits them exactly.
-    Auto { max: usize },
+    Auto {
+        /// Largest observer order `p` tried (past samples per regressor, at least 1).
+        max: usize,
+    },
 }
 
 /// OKID parameters.
@@ -592,20 +595,34 @@ pub struct Okid {
 pub enum OkidError {
     /// Parameters out of range.
     #[error("invalid OKID parameters: {reason}")]
-    InvalidParams { reason: String },
+    InvalidParams {
+        /// Which parameter is out of range and what it must be.
+        reason: String,
+    },
     /// The records are unusable.
     #[error(transparent)]
     Data(#[from] DataError),
     /// Fewer equations than unknowns.
     #[error("OKID regression has {equations} equations for {unknowns} unknowns")]
-    Underdetermined { equations: usize, unknowns: usize },
+    Underdetermined {
+        /// Equations of the stacked regression: one per usable sample of every record
+        /// (each with one target per output).
+        equations: usize,
+        /// Coefficients per output at the largest observer order `p` tried:
+        /// `(q + 1) r + p (r + m)`.
+        unknowns: usize,
+    },
     /// The observer stayed unstable after raising `rcond` as far as allowed.
     #[error(
         "OKID observer of order {observer_order} is unstable (spectral radius {spectral_radius:.6}) even with rcond = {rcond:e}"
     )]
     UnstableObserver {
+        /// Spectral radius of the observer's autoregressive companion matrix at the last
+        /// attempt (1 or more: unstable).
         spectral_radius: f64,
+        /// The relative singular-value cutoff of the last attempt.
         rcond: f64,
+        /// Observer order `p` of the fit.
         observer_order: usize,
     },
     /// A decomposition failed.

@@ -812,21 +812,34 @@ pub enum Warning {
     /// A record's hit (largest input sample) comes fewer than `recommended` samples after
     /// its start: with band-limited records the neglected filter precursor biases the result.
     ShortPretrigger {
+        /// The record (hit), 0-based in the order given.
         record: usize,
+        /// Sample of the largest input magnitude (0-based from the record start).
         peak_sample: usize,
+        /// Samples wanted before the hit: twice the OKID input leads `q`.
         recommended: usize,
     },
     /// OKID raised `rcond` to stabilize the observer.
     RcondRaised {
+        /// The relative singular-value cutoff that gave an unstable observer.
         from: f64,
+        /// The cutoff tried next (ten times `from`).
         to: f64,
+        /// Spectral radius of the observer's companion matrix at `from` (1 or more).
         spectral_radius: f64,
     },
     /// The largest singular-value gap gave too few structural modes; a larger order was used.
-    OrderIncreased { from: usize, to: usize },
+    OrderIncreased {
+        /// The model order of the largest singular-value gap (states).
+        from: usize,
+        /// The model order used (states).
+        to: usize,
+    },
     /// More structural modes than DOFs; the most consistent were kept.
     ExtraStructuralModes {
+        /// Natural frequencies of the modes used by MKR (Hz, one per DOF).
         kept_hz: Vec<f64>,
+        /// Natural frequencies of the structural modes left out (Hz).
         dropped_hz: Vec<f64>,
     },
     /// The input polarity was inverted and has been flipped.
@@ -836,11 +849,23 @@ pub enum Warning {
     },
     /// The driving-point feedthrough `D[k,l]` is not positive (after any flip), contrary to
     /// `D = M^-1 B2`.
-    DrivingPointNotPositive { value: f64 },
+    DrivingPointNotPositive {
+        /// `D[k,l]` of the collocated pair (m/s^2 per N).
+        value: f64,
+    },
     /// The realization is far from a second-order system (`||W W^T|| / ||W Lc W^T||`).
-    SecondOrderInconsistent { consistency: f64 },
+    SecondOrderInconsistent {
+        /// `||W W^T||_F / ||W Lc W^T||_F`, above [`CONSISTENCY_WARNING`] (0 for an exact
+        /// second-order system).
+        consistency: f64,
+    },
     /// A Rayleigh coefficient is negative.
-    NegativeRayleigh { alpha: f64, beta: f64 },
+    NegativeRayleigh {
+        /// Mass-proportional coefficient `alpha` (1/s).
+        alpha: f64,
+        /// Stiffness-proportional coefficient `beta` (s).
+        beta: f64,
+    },
 }
 
 impl fmt::Display for Warning {
@@ -899,7 +924,10 @@ impl fmt::Display for Warning {
 pub enum Error {
     /// Parameters out of range.
     #[error("invalid parameters: {reason}")]
-    InvalidParams { reason: String },
+    InvalidParams {
+        /// Which parameter is out of range and what it must be.
+        reason: String,
+    },
     /// The records are unusable.
     #[error(transparent)]
     Data(#[from] DataError),
@@ -922,19 +950,30 @@ pub enum Error {
     #[error(
         "{outputs} outputs for {dofs} degrees of freedom: MKR needs an accelerometer at every DOF"
     )]
-    OutputsFewerThanDofs { outputs: usize, dofs: usize },
+    OutputsFewerThanDofs {
+        /// Outputs (accelerometer channels) of the records.
+        outputs: usize,
+        /// Degrees of freedom expected ([`Identifier::dofs`]).
+        dofs: usize,
+    },
     /// Fewer structural modes than degrees of freedom at every order tried.
     #[error(
         "only {structural} structural modes found (best at model order {order}), {required} are needed"
     )]
     OrderNotIdentifiable {
+        /// Structural modes found at the best order (0 when no order could be tried).
         structural: usize,
+        /// Structural modes needed: one per DOF (the outputs).
         required: usize,
+        /// The model order (states) with the most structural modes (0 when none was tried).
         order: usize,
     },
     /// A result is not finite.
     #[error("identified {quantity} is not finite")]
-    NonFiniteResult { quantity: &'static str },
+    NonFiniteResult {
+        /// What is not finite (e.g. `"mass"`, `"mode shapes"`).
+        quantity: &'static str,
+    },
 }
 
 impl Error {

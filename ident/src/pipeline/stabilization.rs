@@ -49,9 +49,13 @@ impl Default for StabilizationCriteria {
 /// One pole of the diagram.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct StabilizationPoint {
+    /// Model order of the realization (states, even).
     pub order: usize,
+    /// Natural frequency of the mode (Hz).
     pub frequency_hz: f64,
+    /// Damping ratio of the mode (fraction of critical, not percent).
     pub damping_ratio: f64,
+    /// How the mode compares with the closest one of the previous order.
     pub status: Stability,
     /// Whether the structural rule accepts the mode at this order.
     pub structural: bool,

@@ -24,12 +24,18 @@ pub struct Rayleigh {
 pub enum RayleighError {
     /// Fewer than two modes.
     #[error("Rayleigh damping needs at least 2 modes, {modes} given")]
-    TooFewModes { modes: usize },
+    TooFewModes {
+        /// Modes given.
+        modes: usize,
+    },
     /// A frequency or damping ratio is not finite or a frequency is not positive.
     #[error("mode {mode} has frequency {frequency_hz} Hz and damping ratio {damping_ratio}")]
     InvalidMode {
+        /// Position of the mode in the lists given (0-based).
         mode: usize,
+        /// Its natural frequency (Hz).
         frequency_hz: f64,
+        /// Its damping ratio (fraction of critical).
         damping_ratio: f64,
     },
     /// All modes have the same frequency: alpha and beta cannot be separated.

@@ -373,15 +373,21 @@ pub struct Refinement {
 pub enum RefineError {
     /// Parameters out of range.
     #[error("invalid refinement parameters: {reason}")]
-    InvalidParams { reason: String },
+    InvalidParams {
+        /// Which parameter is out of range and what it must be.
+        reason: String,
+    },
     /// The records are unusable.
     #[error(transparent)]
     Data(#[from] DataError),
     /// The initial (or true) M or K is not positive definite.
     #[error("the {matrix} matrix is not positive definite (Cholesky pivot {pivot} = {value:e})")]
     NotPositiveDefinite {
+        /// The mass or the stiffness matrix.
         matrix: MatrixKind,
+        /// The first non-positive Cholesky pivot (0-based DOF).
         pivot: usize,
+        /// Its value (the Schur-complement diagonal entry, in kg or N/m).
         value: f64,
     },
     /// The model has non-finite entries.
@@ -394,7 +400,13 @@ pub enum RefineError {
     #[error(
         "the {matrix} matrix is not representable by the parametrization (relative residual {residual:e})"
     )]
-    NotRepresentable { matrix: MatrixKind, residual: f64 },
+    NotRepresentable {
+        /// The matrix that does not fit the parametrization.
+        matrix: MatrixKind,
+        /// Relative Frobenius residual of its least-squares projection on the
+        /// parametrization (above `1e-9`).
+        residual: f64,
+    },
     /// Fewer observations than unknowns.
     #[error(
         "{observations} real observations for {unknowns} unknowns{}: too few bins (longer records or a higher band edge)",
@@ -403,7 +415,11 @@ pub enum RefineError {
     TooFewBins {
         /// The record with too few bins for its transient, or `None` for the total.
         hit: Option<usize>,
+        /// Real observations (real and imaginary parts of every bin and channel) of that
+        /// record, or of all records.
         observations: usize,
+        /// Unknowns they must determine: the record's transient vector (`2 n`), or all
+        /// parameters plus every record's transient.
         unknowns: usize,
     },
     /// The Fisher information is singular: the data do not determine every parameter.
@@ -411,8 +427,13 @@ pub enum RefineError {
         "the parameters are not identifiable: Fisher information of rank {rank} for {parameters} parameters (weakest: parameter {weakest})"
     )]
     NotIdentifiable {
+        /// Numerical rank of the Jacobi-scaled Fisher information.
         rank: usize,
+        /// Parameters of the parametrization (the Fisher matrix's size).
         parameters: usize,
+        /// The parameter (0-based, in the parametrization's order) the data determine
+        /// least: the first with no information at all, else the largest component of the
+        /// eigenvector of the smallest eigenvalue.
         weakest: usize,
     },
     /// The eigendecomposition of the refined model failed.

@@ -6,11 +6,17 @@ use serde::{Deserialize, Serialize};
 /// (linear interpolation between order statistics) of the finite values.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Stats {
+    /// Finite values the statistics are computed from.
     pub n: usize,
+    /// Arithmetic mean (`None` when `n = 0`).
     pub mean: Option<f64>,
+    /// Sample standard deviation with `n - 1` (`None` when `n < 2`).
     pub std: Option<f64>,
+    /// Median (`None` when `n = 0`).
     pub median: Option<f64>,
+    /// 5th percentile (`None` when `n = 0`).
     pub p5: Option<f64>,
+    /// 95th percentile (`None` when `n = 0`).
     pub p95: Option<f64>,
 }
 
