@@ -10,8 +10,9 @@ use ident::{Intersample, Jackknife};
 use num_complex::Complex64;
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
+use records::consistency::ByLine;
 use serde::{Deserialize, Serialize};
-use study::analysis::{AnalysisSettings, Screening, analyze, identifier};
+use study::analysis::{AnalysisSettings, Screening, analyze, analyze_located, identifier};
 use study::scenario::ParametrizationSetting;
 
 use crate::arrays::{self, matrix, rows, vector};
@@ -41,6 +42,9 @@ pub struct IdentState {
     /// `Vec<records::quality::HitQuality>` as JSON (that type serializes
     /// only): what the command line prints.
     hit_quality_json: String,
+    /// `Vec<records::consistency::ConsistencyFlag>` as JSON.
+    inconsistent_hits_json: String,
+    consistency_notes: Vec<String>,
     dropped_hits: Vec<String>,
     uncertainty: Option<Jackknife>,
     uncertainty_skipped: Option<String>,
@@ -188,7 +192,24 @@ impl Identification {
         arrays::json(py, &self.state.hit_quality_json)
     }
 
-    /// Labels (files) of the hits left out by ``drop_bad_hits=True``.
+    /// Hits inconsistent with the others (dead, copied or spiked channels,
+    /// duplicates, level, spectrum or residual against the joint model):
+    /// dicts with ``record`` (zero-based position in the campaign given),
+    /// ``file``, ``channel``, ``kind`` and ``message``, as
+    /// ``inconsistent_hits`` of the command line's JSON.
+    #[getter]
+    fn inconsistent_hits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        arrays::json(py, &self.state.inconsistent_hits_json)
+    }
+
+    /// Findings of the consistency checks that flag no hit.
+    #[getter]
+    fn consistency_notes(&self) -> Vec<String> {
+        self.state.consistency_notes.clone()
+    }
+
+    /// Labels (files) of the hits left out: inconsistent ones, and with
+    /// ``drop_bad_hits=True`` those failing a quality check.
     #[getter]
     fn dropped_hits(&self) -> Vec<String> {
         self.state.dropped_hits.clone()
@@ -830,6 +851,11 @@ fn resolve_collocated(
     Ok((find("output", o, outputs)?, find("input", i, inputs)?))
 }
 
+/// A value's JSON text (for the fields kept as the command line prints them).
+fn json_text<T: Serialize>(value: &T) -> PyResult<String> {
+    serde_json::to_string(value).map_err(|e| error(format!("cannot convert to JSON: {e}")))
+}
+
 fn parse_intersample(text: &str) -> PyResult<Intersample> {
     text.parse()
         .map_err(|e: String| error(format!("intersample: {e}")))
@@ -876,6 +902,11 @@ fn identify(
         error("campaign: expected a frameid.Campaign (from frameid.Campaign(force, acc, dt_s), read_records or simulate)")
     })?;
     let c = &campaign.get().inner;
+    let files: Option<Vec<records::RecordFile>> = campaign
+        .get()
+        .files
+        .as_ref()
+        .map(|f| f.iter().map(|m| m.record_file()).collect());
     check_observer_order(observer_order)?;
     let intersample = parse_intersample(intersample)?;
     let parametrization: ParametrizationSetting = parametrization
@@ -907,9 +938,14 @@ fn identify(
     };
     let state = py.detach(|| {
         guard(|| {
-            let a = analyze(c, &settings).map_err(lib_error)?;
-            let hit_quality_json = serde_json::to_string(&a.hit_quality)
-                .map_err(|e| error(format!("cannot convert the hit quality: {e}")))?;
+            // Records from files: messages name the line of a sample.
+            let a = match &files {
+                Some(files) => analyze_located(c, &ByLine(files), &settings),
+                None => analyze(c, &settings),
+            }
+            .map_err(lib_error)?;
+            let hit_quality_json = json_text(&a.hit_quality)?;
+            let inconsistent_hits_json = json_text(&a.consistency.flags)?;
             let ac = &a.campaign;
             Ok(IdentState {
                 source: Source {
@@ -928,6 +964,8 @@ fn identify(
                     .map(|&i| a.hit_quality[i].file.clone())
                     .collect(),
                 hit_quality_json,
+                inconsistent_hits_json,
+                consistency_notes: a.consistency.notes,
                 uncertainty: a.uncertainty,
                 uncertainty_skipped: a.uncertainty_skipped,
                 refinement: a.refinement,
@@ -979,6 +1017,8 @@ fn identify_realization(
             },
             identification: result,
             hit_quality_json: "[]".into(),
+            inconsistent_hits_json: "[]".into(),
+            consistency_notes: Vec::new(),
             dropped_hits: Vec::new(),
             uncertainty: None,
             uncertainty_skipped: None,

@@ -309,7 +309,7 @@ fn simulate(
             Ok((campaign.to_ident(), truth))
         })
     })?;
-    Ok((Campaign { inner: campaign }, Truth { state: truth }))
+    Ok((Campaign::from_ident(campaign), Truth { state: truth }))
 }
 
 /// The Cramér–Rao bound as relative standard deviations: per mode of the
