@@ -443,7 +443,7 @@ def bound(scenario: _Path, noise: float, *, seed: int = 1, hits: int | None = No
 def sweep(
     scenario: _Path,
     *,
-    noise: Sequence[float] | None = None,
+    noise: float | Sequence[float] | npt.ArrayLike | None = None,
     trials: int | None = None,
     seed: int | None = None,
     shard: tuple[int, int] | str | None = None,

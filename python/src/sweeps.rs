@@ -453,7 +453,7 @@ fn check_noise_levels(levels: &[f64]) -> PyResult<()> {
 fn sweep(
     py: Python<'_>,
     scenario: PathBuf,
-    noise: Option<Vec<f64>>,
+    noise: Option<&Bound<'_, PyAny>>,
     trials: Option<usize>,
     seed: Option<u64>,
     shard: Option<&Bound<'_, PyAny>>,
@@ -461,6 +461,14 @@ fn sweep(
     out: Option<PathBuf>,
     force: bool,
 ) -> PyResult<Sweep> {
+    let noise: Option<Vec<f64>> = noise
+        .map(|n| {
+            n.extract::<f64>().map(|x| vec![x]).or_else(|_| {
+                n.extract::<Vec<f64>>()
+                    .map_err(|_| error("noise: expected a level or a sequence of levels (fractions of each channel's RMS)"))
+            })
+        })
+        .transpose()?;
     if let Some(levels) = &noise {
         check_noise_levels(levels)?;
     }
