@@ -280,13 +280,6 @@ fn record_without_a_hit() {
     let zero = edited(&files[1], dir.path(), "zero.csv", |i, l| {
         if i == 1 { l.into() } else { cell(l, 1, "0") }
     });
-    refused(
-        &[&files[0], &zero, &files[2]],
-        &[
-            "zero.csv: no hit: the force channel 'force' is constant",
-            "--drop-bad-hits",
-        ],
-    );
     // Force with only noise (a fixed pseudo-random sequence).
     let mut state: u64 = 7;
     let noise = edited(&files[1], dir.path(), "noise.csv", |i, l| {
@@ -299,17 +292,43 @@ fn record_without_a_hit() {
         let u = (state >> 11) as f64 / (1u64 << 53) as f64;
         cell(l, 1, &format!("{}", 0.002 * (u - 0.5)))
     });
+    // Among other hits such a record is inconsistent with them: dropped with
+    // warnings naming it (the no-hit diagnosis among them), refused by
+    // --strict.
+    for (bad, diagnosis, flag) in [
+        (
+            &zero,
+            "zero.csv: no hit: the force channel 'force' is constant",
+            "zero.csv: channel force: dead channel",
+        ),
+        (
+            &noise,
+            "noise.csv: no hit: the force channel 'force' peaks at",
+            "noise.csv: channel force: level",
+        ),
+    ] {
+        let out = ok(&["identify", &files[0], bad, &files[2]]);
+        assert!(out.contains(diagnosis), "{out}");
+        assert!(out.contains(flag), "{out}");
+        assert!(out.contains("dropped 1 of 3 hits"), "{out}");
+        refused(
+            &[&files[0], bad, &files[2], "--strict"],
+            &["--strict: 1 of 3 hits are inconsistent", flag],
+        );
+    }
+    // With one other hit there is nothing to compare with: the record
+    // without a hit is refused, or dropped on request.
     refused(
-        &[&files[0], &noise, &files[2]],
+        &[&files[0], &noise],
         &[
             "noise.csv: no hit: the force channel 'force' peaks at",
             "only noise",
+            "--drop-bad-hits",
         ],
     );
-    // Dropped on request: the other two are identified, and it is said.
-    let out = ok(&["identify", &files[0], &noise, &files[2], "--drop-bad-hits"]);
+    let out = ok(&["identify", &files[0], &noise, "--drop-bad-hits"]);
     assert!(
-        out.contains("dropped 1 of 3 hits") && out.contains("noise.csv (no hit)"),
+        out.contains("dropped 1 of 2 hits") && out.contains("noise.csv (no hit)"),
         "{out}"
     );
 }

@@ -103,8 +103,26 @@ fn bad_hits_are_reported_refused_or_dropped() {
     assert!(
         warnings
             .iter()
+            .filter(|w| !w.starts_with("dropped "))
             .all(|w| bad.iter().any(|b| w.starts_with(b.as_str()))),
         "only the bad hits are warned about: {warnings:?}"
+    );
+    // Clipped accelerations no longer follow the model the other hits agree
+    // on: without flags those hits are dropped as inconsistent (with a
+    // warning), the double hits (whose transfer is intact) are kept.
+    let inconsistent: Vec<&str> = all["inconsistent_hits"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["file"].as_str().unwrap())
+        .collect();
+    assert!(
+        inconsistent.iter().all(|f| cl.iter().any(|c| c == f)),
+        "{inconsistent:?}"
+    );
+    assert_eq!(
+        all["dropped_hits"].as_array().unwrap().len(),
+        inconsistent.len()
     );
     let hq = all["hit_quality"].as_array().unwrap();
     assert_eq!(hq.len(), 14);

@@ -160,27 +160,43 @@ pub fn jackknife(
     campaign: &Campaign,
     joint: &Identification,
 ) -> Result<Jackknife, UncertaintyError> {
-    let (records, dt_s) = (&campaign.records, campaign.dt_s);
-    let n = records.len();
+    let n = campaign.records.len();
     if n < MIN_HITS {
         return Err(UncertaintyError::TooFewHits { hits: n });
     }
-    let mut id = identifier
-        .clone()
-        .order(ModelOrder::Fixed(joint.model_order));
-    let observer_order = joint.observer.map(|o| o.order);
-    if let Some(p) = observer_order {
-        id = id.observer_order(ObserverOrder::Fixed(p));
+    let results = leave_one_out(identifier, campaign, Some(joint));
+    jackknife_from(campaign, joint, results)
+}
+
+/// The `n` leave-one-out identifications of a campaign (result `i` without
+/// record `i`), in parallel and independent of the thread count. With
+/// `joint` (the identification of all records with the same identifier)
+/// they use its model and observer orders, as the jackknife does; without,
+/// each chooses its own.
+///
+/// The records are validated and their OKID lagged products accumulated
+/// once, and every resample subtracts one record's share; if the records
+/// cannot be prepared as a whole, each subset is identified from scratch
+/// (and fails or not on its own).
+pub fn leave_one_out(
+    identifier: &Identifier,
+    campaign: &Campaign,
+    joint: Option<&Identification>,
+) -> Vec<Result<Identification, Error>> {
+    let (records, dt_s) = (&campaign.records, campaign.dt_s);
+    let n = records.len();
+    let mut id = identifier.clone();
+    if let Some(joint) = joint {
+        id = id.order(ModelOrder::Fixed(joint.model_order));
+        if let Some(p) = joint.observer.map(|o| o.order) {
+            id = id.observer_order(ObserverOrder::Fixed(p));
+        }
     }
-    // Each resample is the joint regression without one hit: the records are validated
-    // and their OKID lagged products accumulated once, and every resample subtracts one
-    // hit's share. If the records cannot be prepared as a whole, each subset is
-    // identified from scratch (and fails or not on its own).
     let prepared = id.check().and_then(|valid| {
         let prepared = valid.prepare(records, dt_s)?;
         Ok((valid, prepared))
     });
-    let results: Vec<Result<Identification, Error>> = match &prepared {
+    match &prepared {
         Ok((valid, prepared)) => (0..n)
             .into_par_iter()
             .map(|left_out| valid.identify_without(prepared, left_out))
@@ -197,7 +213,23 @@ pub fn jackknife(
                 id.identify(&subset, dt_s)
             })
             .collect(),
-    };
+    }
+}
+
+/// The jackknife of `joint` from the [`leave_one_out`] identifications of
+/// `campaign` at `joint`'s orders (computed once, for example to check every
+/// hit against the model of the others as well).
+pub fn jackknife_from(
+    campaign: &Campaign,
+    joint: &Identification,
+    results: Vec<Result<Identification, Error>>,
+) -> Result<Jackknife, UncertaintyError> {
+    let n = campaign.records.len();
+    assert_eq!(results.len(), n, "one leave-one-out result per record");
+    if n < MIN_HITS {
+        return Err(UncertaintyError::TooFewHits { hits: n });
+    }
+    let observer_order = joint.observer.map(|o| o.order);
     let mut ok = Vec::with_capacity(n);
     let mut failed = Vec::new();
     let dofs = joint.frequencies_hz.len();

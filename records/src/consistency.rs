@@ -20,7 +20,10 @@
 //! | duplicate | two hits, channel by channel | difference energy <= 1e-8 of the signal's |
 //! | level | RMS of a channel (outputs: over the hit's force RMS) with the campaign's median | outside 1/10..10x (20 dB) |
 //! | spectrum | share of a channel's energy per octave band with the campaign's median share | a band holding >= 5 % differs by 10x |
+//! | offset | a channel's mean over its RMS with the campaign's median | over 10x the median and over 0.1 |
 //! | residual | each hit's outputs with the joint model of the kept hits (in `study`) | over 10x the median and over 0.1 % of the prediction's energy |
+//! | transfer | each hit's gain to each output against the model of the other hits (in `study`) | over 2 % and over 5 robust deviations from the median gain |
+//! | breaks the identification | the joint identification with and without the hit (in `study`) | fails with it, succeeds without it |
 //!
 //! The comparisons across hits need at least [`ConsistencySettings::min_hits`]
 //! hits (with two, the odd one out cannot be told apart); with fewer the
@@ -89,6 +92,27 @@ pub struct ConsistencySettings {
     /// 3 % RMS misfit). Below it a hit agrees with the model better than any
     /// calibration of a real rig, whatever the median.
     pub residual_floor: f64,
+    /// A hit's transfer gain to an output (the least-squares factor between
+    /// the output and the model of the other hits' prediction) is flagged
+    /// when it differs from the median gain over the hits by more than this
+    /// share: 0.02 ...
+    pub transfer_floor: f64,
+    /// ... and by more than this many robust standard deviations of the
+    /// gains (1.4826 x their median absolute deviation): 5. Honest hits of
+    /// one set-up share their transfer to well within a percent; a gain
+    /// error in one hit of n moves M and K by about the error over n, which
+    /// at 2 % is below the error bars of a typical campaign.
+    pub transfer_sigmas: f64,
+    /// A channel's mean over its RMS about the mean is flagged when it
+    /// exceeds this many times the campaign's median of the same ratio:
+    /// 10 (as the level).
+    pub offset_factor: f64,
+    /// ... and exceeds this value: 0.1. A hammer record's acceleration
+    /// integrates to the velocity change over the record, near zero, and
+    /// its force mean over RMS is about the square root of the pulse's share
+    /// of the record (0.04 for 3 of 2048 samples), so honest records stay
+    /// well below.
+    pub offset_floor: f64,
 }
 
 /// Samples either side of a spike candidate excluded from the comparison:
@@ -109,6 +133,10 @@ impl Default for ConsistencySettings {
             spectrum_factor: 10.0,
             residual_factor: 10.0,
             residual_floor: 1e-3,
+            offset_factor: 10.0,
+            offset_floor: 0.1,
+            transfer_floor: 0.02,
+            transfer_sigmas: 5.0,
         }
     }
 }
@@ -121,6 +149,8 @@ impl ConsistencySettings {
             ("spike_factor", self.spike_factor),
             ("spectrum_factor", self.spectrum_factor),
             ("residual_factor", self.residual_factor),
+            ("offset_factor", self.offset_factor),
+            ("transfer_sigmas", self.transfer_sigmas),
         ];
         for (name, v) in above_one {
             if !(v.is_finite() && v > 1.0) {
@@ -134,6 +164,8 @@ impl ConsistencySettings {
             ("duplicate_tolerance", self.duplicate_tolerance),
             ("spectrum_min_share", self.spectrum_min_share),
             ("residual_floor", self.residual_floor),
+            ("offset_floor", self.offset_floor),
+            ("transfer_floor", self.transfer_floor),
         ];
         for (name, v) in fractions {
             if !(v.is_finite() && (0.0..1.0).contains(&v)) {
@@ -175,8 +207,17 @@ pub enum Inconsistency {
     Level,
     /// A channel's spectrum is far from the other hits'.
     Spectrum,
+    /// A channel's mean is far from zero, unlike the other hits' (a DC
+    /// offset or a drift).
+    Offset,
     /// A hit's outputs do not follow the model the other hits agree on.
     Residual,
+    /// A hit's transfer gain from the input to an output (against the model
+    /// of the other hits) differs from the other hits'.
+    Transfer,
+    /// The joint identification fails with the hit and succeeds without
+    /// it.
+    BreaksIdentification,
 }
 
 impl Inconsistency {
@@ -190,7 +231,10 @@ impl Inconsistency {
             Inconsistency::Duplicate => "duplicate record",
             Inconsistency::Level => "level",
             Inconsistency::Spectrum => "spectrum",
+            Inconsistency::Offset => "offset",
             Inconsistency::Residual => "residual",
+            Inconsistency::Transfer => "transfer",
+            Inconsistency::BreaksIdentification => "breaks the identification",
         }
     }
 }
@@ -585,6 +629,43 @@ pub fn check_consistency(
                 message.push_str(" (a dead, disconnected or mis-ranged sensor?)");
             }
             flag(&mut out, k, Some(s.name), kind, message);
+        }
+    }
+
+    // Offsets: mean over RMS about the mean, against the campaign.
+    for j in 0..channels {
+        let ratio: Vec<Option<f64>> = (0..hits)
+            .map(|k| {
+                let x = &data[k][j].values;
+                (usable(k, j) && !spiked[k][j] && levels[k][j] > 0.0)
+                    .then(|| mean(x).abs() / levels[k][j])
+            })
+            .collect();
+        let pool: Vec<f64> = distinct.iter().filter_map(|&k| ratio[k]).collect();
+        if pool.len() < settings.min_hits {
+            continue;
+        }
+        let med = median(&pool);
+        for k in 0..hits {
+            let Some(r) = ratio[k] else { continue };
+            if r > settings.offset_floor && r > settings.offset_factor * med {
+                let s = &data[k][j];
+                flag(
+                    &mut out,
+                    k,
+                    Some(s.name),
+                    Inconsistency::Offset,
+                    format!(
+                        "mean {} is {} times the channel's RMS about it, against a median {} over the {} hits (limits {} and {}x): a DC offset or drift the other hits do not have",
+                        sig(mean(&s.values), 4),
+                        sig(r, 3),
+                        sig(med, 3),
+                        pool.len(),
+                        sig(settings.offset_floor, 3),
+                        sig(settings.offset_factor, 3)
+                    ),
+                );
+            }
         }
     }
 

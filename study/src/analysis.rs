@@ -289,21 +289,57 @@ pub fn analyze_located(
     let id = &settings.identifier;
     let mut c = campaign.subset(&keep);
     check_orders(&c, id)?;
-    let mut result = id
-        .identify(&c.records, c.dt_s)
-        .map_err(|e| identification_error(e, &c, id))?;
-    // Every kept hit against the joint model: a hit whose outputs do not
-    // follow it is dropped (if such hits are a minority) and the rest
+    let mut result = match id.identify(&c.records, c.dt_s) {
+        Ok(r) => r,
+        Err(e) => {
+            // A hit that breaks the joint identification on its own is
+            // inconsistent with the others: find it, or refuse naming none.
+            let Some((bad, r)) =
+                without_breaking_hit(campaign, &keep, id, &settings.consistency)
+            else {
+                return Err(identification_error(e, &c, id));
+            };
+            let flag = ConsistencyFlag {
+                record: bad,
+                file: campaign.label(bad),
+                channel: None,
+                kind: Inconsistency::BreaksIdentification,
+                message: format!(
+                    "the joint identification fails with this hit ({}) and succeeds without it",
+                    identification_error(e, &c, id)
+                ),
+            };
+            if settings.screening == Screening::Strict {
+                return Err(AnalysisError::StrictInconsistent {
+                    failing: 1,
+                    hits: campaign.len(),
+                    lines: flag_lines(std::slice::from_ref(&flag)),
+                });
+            }
+            consistency.flags.push(flag);
+            consistency.flags.sort_by_key(|f| f.record);
+            keep.retain(|&i| i != bad);
+            c = campaign.subset(&keep);
+            r
+        }
+    };
+    // Every kept hit against the model of the other hits (its leave-one-out
+    // identification, which the jackknife reuses): a hit whose outputs do
+    // not follow it is dropped (if such hits are a minority) and the rest
     // identified again, once.
     let mut residual_notes = Vec::new();
+    let mut loo = None;
     if keep.len() >= settings.consistency.min_hits {
-        let flags = residual_flags(&c, &keep, &result, &settings.consistency);
+        let results = ident::leave_one_out(id, &c, Some(&result));
+        let flags = residual_flags(&c, &keep, &results, &settings.consistency);
         let odd: Vec<usize> = {
             let mut v: Vec<usize> = flags.iter().map(|f| f.record).collect();
             v.dedup();
             v
         };
-        if !odd.is_empty() {
+        if odd.is_empty() {
+            loo = Some(results);
+        } else {
             if settings.screening == Screening::Strict {
                 return Err(AnalysisError::StrictInconsistent {
                     failing: odd.len(),
@@ -320,8 +356,9 @@ pub fn analyze_located(
                     .identify(&c.records, c.dt_s)
                     .map_err(|e| identification_error(e, &c, id))?;
             } else {
+                loo = Some(results);
                 residual_notes.push(format!(
-                    "the residuals of {} of {} hits stand out against the joint model; as they are not a minority no hit is dropped (is the campaign a mix of set-ups?): {}",
+                    "the residuals of {} of {} hits stand out against the model of the other hits; as they are not a minority no hit is dropped (is the campaign a mix of set-ups?): {}",
                     odd.len(),
                     keep.len(),
                     flags.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")
@@ -333,7 +370,11 @@ pub fn analyze_located(
     let dropped: Vec<usize> = (0..campaign.len()).filter(|i| !keep.contains(i)).collect();
     check_modes_against_outputs(&result, &c)?;
     let (uncertainty, uncertainty_skipped) = if settings.uncertainty {
-        match ident::jackknife(id, &c, &result) {
+        let jk = match loo {
+            Some(results) => ident::jackknife_from(&c, &result, results),
+            None => ident::jackknife(id, &c, &result),
+        };
+        match jk {
             Ok(u) => (Some(u), None),
             Err(e) => (None, Some(e.to_string())),
         }
@@ -413,55 +454,151 @@ pub fn analyze_located(
     })
 }
 
+/// When the joint identification of the hits `keep` of `campaign` fails:
+/// the one hit without which it succeeds, with that identification. When
+/// several hits can be left out with success, the one whose own residual
+/// against the model of the others is `residual_factor` times every other
+/// candidate's (and above `residual_floor`) is to blame. `None` with fewer
+/// than `min_hits` hits, or when no single hit is to blame.
+fn without_breaking_hit(
+    campaign: &Campaign,
+    keep: &[usize],
+    id: &Identifier,
+    settings: &ConsistencySettings,
+) -> Option<(usize, Identification)> {
+    if keep.len() < settings.min_hits {
+        return None;
+    }
+    let sub = campaign.subset(keep);
+    let results = ident::leave_one_out(id, &sub, None);
+    let mut ok: Vec<(usize, Identification)> = results
+        .into_iter()
+        .enumerate()
+        .filter_map(|(k, r)| Some((k, r.ok()?)))
+        .collect();
+    if ok.len() <= 1 {
+        return ok.pop().map(|(k, r)| (keep[k], r));
+    }
+    // Residual share of each candidate hit against the model without it.
+    let scores: Vec<f64> = ok
+        .iter()
+        .map(|(k, model)| {
+            let rec = &sub.records[*k];
+            let sign = if model.polarity_flipped { -1.0 } else { 1.0 };
+            let p = model.realization.simulate(&rec.inputs);
+            let (mut d, mut e) = (0.0, 0.0);
+            for (y, q) in rec.outputs.iter().zip(p.iter()) {
+                d += (y - sign * q) * (y - sign * q);
+                e += q * q;
+            }
+            if e > 0.0 { d / e } else { f64::INFINITY }
+        })
+        .collect();
+    let (best, &top) = scores
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(b.1))?;
+    let blamed = top > settings.residual_floor
+        && scores
+            .iter()
+            .enumerate()
+            .all(|(i, &s)| i == best || top > settings.residual_factor * s);
+    blamed.then(|| {
+        let (k, r) = ok.swap_remove(best);
+        (keep[k], r)
+    })
+}
+
 /// The residual of every hit of `c` (hit `i` of `c` is record `index[i]` of
-/// the campaign given) against the joint model `result`: per output, the
-/// energy of `y - s y_model` over that of the model's response `y_model` to
-/// the hit's inputs, with one sign `s` for the campaign (the realization's
-/// input polarity). A hit is flagged when an output's residual exceeds both
-/// `residual_factor` times the median over the hits and `residual_floor`.
+/// the campaign given) against the model of the other hits, `loo[i]` (its
+/// leave-one-out identification): per output, the energy of `y - y_model`
+/// over that of `y_model`, the model's response to the hit's inputs (with
+/// the realization's polarity undone). A hit is flagged when an output's
+/// residual exceeds both `residual_factor` times the median over the hits
+/// and `residual_floor`. Hits whose leave-one-out identification failed are
+/// not judged here (the jackknife reports them).
 fn residual_flags(
     c: &Campaign,
     index: &[usize],
-    result: &Identification,
+    loo: &[Result<Identification, ident::Error>],
     settings: &ConsistencySettings,
 ) -> Vec<ConsistencyFlag> {
-    let model = &result.realization;
     let m = c.outputs.len();
-    let predicted: Vec<nalgebra::DMatrix<f64>> = c
+    // shares[k][j] = (residual share, gain): hit k, output j (None: no
+    // model without the hit).
+    let shares: Vec<Option<Vec<(f64, f64)>>> = c
         .records
         .iter()
-        .map(|r| model.simulate(&r.inputs))
+        .zip(loo)
+        .map(|(r, model)| {
+            let model = model.as_ref().ok()?;
+            let sign = if model.polarity_flipped { -1.0 } else { 1.0 };
+            let p = model.realization.simulate(&r.inputs);
+            Some(
+                (0..m)
+                    .map(|j| {
+                        let (mut d, mut e, mut x) = (0.0, 0.0, 0.0);
+                        for (y, q) in r.outputs.row(j).iter().zip(p.row(j).iter()) {
+                            let q = sign * q;
+                            d += (y - q) * (y - q);
+                            e += q * q;
+                            x += y * q;
+                        }
+                        if e > 0.0 {
+                            (d / e, x / e)
+                        } else {
+                            (f64::INFINITY, 0.0)
+                        }
+                    })
+                    .collect(),
+            )
+        })
         .collect();
-    let cross: f64 = c
-        .records
-        .iter()
-        .zip(&predicted)
-        .map(|(r, p)| r.outputs.dot(p))
-        .sum();
-    let sign = if cross < 0.0 { -1.0 } else { 1.0 };
-    // shares[j][k]: output j, hit k.
-    let shares: Vec<Vec<f64>> = (0..m)
+    let judged = shares.iter().filter(|s| s.is_some()).count();
+    if judged < settings.min_hits {
+        return Vec::new();
+    }
+    let median = records::consistency::median;
+    let column = |j: usize, g: fn(&(f64, f64)) -> f64| -> Vec<f64> {
+        shares.iter().flatten().map(|s| g(&s[j])).collect()
+    };
+    let medians: Vec<f64> = (0..m).map(|j| median(&column(j, |s| s.0))).collect();
+    // Gains: median and robust spread (1.4826 MAD) per output.
+    let gains: Vec<(f64, f64)> = (0..m)
         .map(|j| {
-            c.records
-                .iter()
-                .zip(&predicted)
-                .map(|(r, p)| {
-                    let (mut d, mut e) = (0.0, 0.0);
-                    for (y, q) in r.outputs.row(j).iter().zip(p.row(j).iter()) {
-                        let q = sign * q;
-                        d += (y - q) * (y - q);
-                        e += q * q;
-                    }
-                    if e > 0.0 { d / e } else { f64::INFINITY }
-                })
-                .collect()
+            let g = column(j, |s| s.1);
+            let med = median(&g);
+            let dev: Vec<f64> = g.iter().map(|x| (x - med).abs()).collect();
+            (med, 1.4826 * median(&dev))
         })
         .collect();
     let mut flags = Vec::new();
-    for k in 0..c.len() {
+    for (k, share) in shares.iter().enumerate() {
+        let Some(share) = share else { continue };
         for j in 0..m {
-            let med = records::consistency::median(&shares[j]);
-            let r = shares[j][k];
+            let ((r, g), med) = (share[j], medians[j]);
+            let (g_med, g_sd) = gains[j];
+            let off = (g - g_med).abs();
+            if g_med > 0.0
+                && off > settings.transfer_floor * g_med
+                && off > settings.transfer_sigmas * g_sd
+            {
+                flags.push(ConsistencyFlag {
+                    record: index[k],
+                    file: c.label(k),
+                    channel: Some(c.outputs[j].clone()),
+                    kind: Inconsistency::Transfer,
+                    message: format!(
+                        "its gain from {} against the model of the other hits is {} times the median gain over the {judged} hits ({} robust deviations; limits {} % and {}): a calibration, sign or set-up change in this hit",
+                        c.inputs.join(", "),
+                        sig(g / g_med, 4),
+                        sig(off / g_sd.max(f64::MIN_POSITIVE), 3),
+                        sig(100.0 * settings.transfer_floor, 3),
+                        sig(settings.transfer_sigmas, 3)
+                    ),
+                });
+                break;
+            }
             if r > settings.residual_factor * med && r > settings.residual_floor {
                 flags.push(ConsistencyFlag {
                     record: index[k],
@@ -469,11 +606,10 @@ fn residual_flags(
                     channel: Some(c.outputs[j].clone()),
                     kind: Inconsistency::Residual,
                     message: format!(
-                        "does not follow the joint model of the hits: residual {} % of the predicted response energy, {}x the median {} % over the {} hits (limits {}x and {} %): its transfer from {} differs (gain, sensor moved or swapped, a changed set-up?)",
+                        "does not follow the model of the other hits: residual {} % of the predicted response energy, {}x the median {} % over the {judged} hits (limits {}x and {} %): its transfer from {} differs (gain, sign, sensor moved or swapped, a changed set-up?)",
                         sig(100.0 * r, 3),
                         sig(r / med.max(f64::MIN_POSITIVE), 3),
                         sig(100.0 * med, 3),
-                        c.len(),
                         sig(settings.residual_factor, 3),
                         sig(100.0 * settings.residual_floor, 3),
                         c.inputs.join(", ")

@@ -182,8 +182,11 @@ fn in_sigmas(a: &nalgebra::DMatrix<f64>, b: &nalgebra::DMatrix<f64>, sd: &[Vec<f
 
 proptest! {
     // 96 cases: every fault kind several times over (about 7 each), in a
-    // few seconds.
-    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+    // few seconds; FRAMEID_PROP_CASES=2000 for a deeper search.
+    #![proptest_config(ProptestConfig {
+        cases: std::env::var("FRAMEID_PROP_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(96),
+        ..ProptestConfig::default()
+    })]
 
     #[test]
     fn one_corrupted_hit_is_named_or_harmless(k in 0..HITS, fault in fault()) {
