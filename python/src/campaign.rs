@@ -237,28 +237,21 @@ impl Campaign {
     /// One (hits, channels, samples) array of the inputs or outputs.
     fn stack<'py>(&self, py: Python<'py>, outputs: bool) -> Bound<'py, PyArray3<f64>> {
         let c = &self.inner;
-        let pick = |r: &ident::Record| -> DMatrix<f64> {
-            if outputs {
-                r.outputs.clone()
-            } else {
-                r.inputs.clone()
-            }
-        };
+        let mats: Vec<&DMatrix<f64>> = c
+            .records
+            .iter()
+            .map(|r| if outputs { &r.outputs } else { &r.inputs })
+            .collect();
         let channels = if outputs {
             c.outputs.len()
         } else {
             c.inputs.len()
         };
-        let mats: Vec<DMatrix<f64>> = c.records.iter().map(pick).collect();
-        // Campaigns are rectangular: built from arrays, or from files that
-        // `records::select` has checked to share one length.
-        let n = c.longest();
-        Array3::from_shape_fn((mats.len(), channels, n), |(h, i, k)| {
-            if k < mats[h].ncols() {
-                mats[h][(i, k)]
-            } else {
-                f64::NAN
-            }
+        // Campaigns are rectangular (built from arrays, or from files that
+        // `records::select` has checked to share one length); NaN would pad
+        // a shorter record.
+        Array3::from_shape_fn((mats.len(), channels, c.longest()), |(h, i, k)| {
+            mats[h].get((i, k)).copied().unwrap_or(f64::NAN)
         })
         .into_pyarray(py)
     }
