@@ -243,6 +243,12 @@ class Identification:
     @property
     def hit_quality(self) -> list[dict[str, Any]]: ...
     @property
+    def inconsistent_hits(self) -> list[dict[str, Any]]:
+        """Hits inconsistent with the others: record, file, channel, kind, message."""
+
+    @property
+    def consistency_notes(self) -> list[str]: ...
+    @property
     def dropped_hits(self) -> list[str]: ...
     @property
     def uncertainty(self) -> Uncertainty | None: ...
@@ -396,7 +402,7 @@ def read_records(
 
 def identify(
     campaign: Campaign,
-    collocated: tuple[_Pick, _Pick] | None = None,
+    collocated: tuple[_Pick, _Pick] | Sequence[_Pick] | str | None = None,
     *,
     order: int | None = None,
     observer_order: int | None = None,
@@ -411,7 +417,7 @@ def identify(
 
 def identify_realization(
     path: _Path,
-    collocated: tuple[_Pick, _Pick] | None = None,
+    collocated: tuple[_Pick, _Pick] | Sequence[_Pick] | str | None = None,
     *,
     order: int | None = None,
     intersample: str = "bandlimited",
@@ -437,7 +443,7 @@ def bound(scenario: _Path, noise: float, *, seed: int = 1, hits: int | None = No
 def sweep(
     scenario: _Path,
     *,
-    noise: Sequence[float] | None = None,
+    noise: float | Sequence[float] | npt.ArrayLike | None = None,
     trials: int | None = None,
     seed: int | None = None,
     shard: tuple[int, int] | str | None = None,

@@ -6,11 +6,11 @@ use nalgebra::DMatrix;
 use numpy::ndarray::{Array3, ArrayD};
 use numpy::{IntoPyArray, PyArray3};
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
-use records::{ChannelSpec, ReadOptions, RecordFile};
+use records::{ChannelSpec, ReadOptions, RecordFile, SampleLines};
+use serde::{Deserialize, Serialize};
 
 use crate::arrays::f64_array;
-use crate::{error, from_state, guard, lib_error, reduce, to_state};
+use crate::{Reduced, error, from_state, guard, lib_error, reduce, to_state};
 
 /// The hits of one test set-up: force and acceleration records sampled
 /// every ``dt_s`` seconds, with channel and hit names.
@@ -25,6 +25,138 @@ use crate::{error, from_state, guard, lib_error, reduce, to_state};
 #[pyclass(module = "frameid", frozen)]
 pub struct Campaign {
     pub inner: ident::Campaign,
+    /// For records read from files: where every sample was in them (without
+    /// the samples), so that messages name the line of a sample as the
+    /// command line's do. `None` for campaigns built from arrays.
+    pub files: Option<Vec<FileMeta>>,
+}
+
+/// What a record file said besides its samples: its path, layout, timing
+/// and channels with the lines that held their samples (a serializable
+/// copy of `records::RecordFile` without the values).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FileMeta {
+    path: PathBuf,
+    format: FormatMeta,
+    dt_s: f64,
+    start_s: f64,
+    channels: Vec<ChannelMeta>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+enum FormatMeta {
+    Csv { delimiter: u8 },
+    Uff58Ascii,
+    Uff58Binary,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct ChannelMeta {
+    name: String,
+    unit: Option<String>,
+    node: Option<i64>,
+    direction: Option<i32>,
+    id_line: Option<String>,
+    lines: Option<LinesMeta>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+enum LinesMeta {
+    Rows {
+        first_line: usize,
+    },
+    Values {
+        starts: Vec<(usize, usize)>,
+        stride: usize,
+        offset: usize,
+    },
+}
+
+impl FileMeta {
+    fn of(f: &RecordFile) -> FileMeta {
+        FileMeta {
+            path: f.path.clone(),
+            format: match f.format {
+                records::Format::Csv { delimiter } => FormatMeta::Csv { delimiter },
+                records::Format::Uff58Ascii => FormatMeta::Uff58Ascii,
+                records::Format::Uff58Binary => FormatMeta::Uff58Binary,
+            },
+            dt_s: f.dt_s,
+            start_s: f.start_s,
+            channels: f
+                .channels
+                .iter()
+                .map(|c| ChannelMeta {
+                    name: c.name.clone(),
+                    unit: c.unit.clone(),
+                    node: c.node,
+                    direction: c.direction,
+                    id_line: c.id_line.clone(),
+                    lines: c.lines.as_ref().map(|l| match l {
+                        SampleLines::Rows { first_line } => LinesMeta::Rows {
+                            first_line: *first_line,
+                        },
+                        SampleLines::Values {
+                            starts,
+                            stride,
+                            offset,
+                        } => LinesMeta::Values {
+                            starts: starts.clone(),
+                            stride: *stride,
+                            offset: *offset,
+                        },
+                    }),
+                })
+                .collect(),
+        }
+    }
+
+    /// The record file again, without samples (what messages need).
+    pub fn record_file(&self) -> RecordFile {
+        RecordFile {
+            path: self.path.clone(),
+            format: match self.format {
+                FormatMeta::Csv { delimiter } => records::Format::Csv { delimiter },
+                FormatMeta::Uff58Ascii => records::Format::Uff58Ascii,
+                FormatMeta::Uff58Binary => records::Format::Uff58Binary,
+            },
+            dt_s: self.dt_s,
+            start_s: self.start_s,
+            channels: self
+                .channels
+                .iter()
+                .map(|c| records::Channel {
+                    name: c.name.clone(),
+                    unit: c.unit.clone(),
+                    node: c.node,
+                    direction: c.direction,
+                    id_line: c.id_line.clone(),
+                    values: Vec::new(),
+                    lines: c.lines.as_ref().map(|l| match l {
+                        LinesMeta::Rows { first_line } => SampleLines::Rows {
+                            first_line: *first_line,
+                        },
+                        LinesMeta::Values {
+                            starts,
+                            stride,
+                            offset,
+                        } => SampleLines::Values {
+                            starts: starts.clone(),
+                            stride: *stride,
+                            offset: *offset,
+                        },
+                    }),
+                })
+                .collect(),
+        }
+    }
+}
+
+/// The pickled form of a campaign.
+#[derive(Debug, Serialize, Deserialize)]
+struct CampaignState {
+    campaign: ident::Campaign,
+    files: Option<Vec<FileMeta>>,
 }
 
 /// Default channel names: `base` for one channel, `base1, base2, ...` for
@@ -90,35 +222,36 @@ fn check_names(what: &str, names: Vec<String>, count: usize, of: &str) -> PyResu
 
 impl Campaign {
     pub fn from_state(state: &[u8]) -> PyResult<Self> {
-        let inner: ident::Campaign = from_state(state)?;
-        Ok(Campaign { inner })
+        let s: CampaignState = from_state(state)?;
+        Ok(Campaign {
+            inner: s.campaign,
+            files: s.files,
+        })
+    }
+
+    /// A campaign built in memory (no files behind it).
+    pub fn from_ident(inner: ident::Campaign) -> Self {
+        Campaign { inner, files: None }
     }
 
     /// One (hits, channels, samples) array of the inputs or outputs.
     fn stack<'py>(&self, py: Python<'py>, outputs: bool) -> Bound<'py, PyArray3<f64>> {
         let c = &self.inner;
-        let pick = |r: &ident::Record| -> DMatrix<f64> {
-            if outputs {
-                r.outputs.clone()
-            } else {
-                r.inputs.clone()
-            }
-        };
+        let mats: Vec<&DMatrix<f64>> = c
+            .records
+            .iter()
+            .map(|r| if outputs { &r.outputs } else { &r.inputs })
+            .collect();
         let channels = if outputs {
             c.outputs.len()
         } else {
             c.inputs.len()
         };
-        let mats: Vec<DMatrix<f64>> = c.records.iter().map(pick).collect();
-        // Campaigns are rectangular: built from arrays, or from files that
-        // `records::select` has checked to share one length.
-        let n = c.longest();
-        Array3::from_shape_fn((mats.len(), channels, n), |(h, i, k)| {
-            if k < mats[h].ncols() {
-                mats[h][(i, k)]
-            } else {
-                f64::NAN
-            }
+        // Campaigns are rectangular (built from arrays, or from files that
+        // `records::select` has checked to share one length); NaN would pad
+        // a shorter record.
+        Array3::from_shape_fn((mats.len(), channels, c.longest()), |(h, i, k)| {
+            mats[h].get((i, k)).copied().unwrap_or(f64::NAN)
         })
         .into_pyarray(py)
     }
@@ -173,9 +306,9 @@ impl Campaign {
                 )
             })
             .collect();
-        Ok(Campaign {
-            inner: ident::Campaign::named(records, dt_s, inputs, outputs, labels),
-        })
+        Ok(Campaign::from_ident(ident::Campaign::named(
+            records, dt_s, inputs, outputs, labels,
+        )))
     }
 
     /// Forces, shape ``(hits, inputs, samples)``, N.
@@ -246,6 +379,10 @@ impl Campaign {
         }
         Ok(Campaign {
             inner: self.inner.subset(&indices),
+            files: self
+                .files
+                .as_ref()
+                .map(|f| indices.iter().map(|&i| f[i].clone()).collect()),
         })
     }
 
@@ -265,17 +402,19 @@ impl Campaign {
         )
     }
 
+    /// Equal samples, sampling interval and names (labels included).
     fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
         other
             .cast::<Campaign>()
             .is_ok_and(|o| o.get().inner == self.inner)
     }
 
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
-        reduce(py, "Campaign", to_state(py, &self.inner)?)
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
+        let state = CampaignState {
+            campaign: self.inner.clone(),
+            files: self.files.clone(),
+        };
+        reduce(py, "Campaign", to_state(py, &state)?)
     }
 }
 
@@ -347,7 +486,7 @@ fn read_records(
         None => vec![ChannelSpec::Name("force".into())],
     };
     let outputs = outputs.map(|o| extract_specs(o, "outputs")).transpose()?;
-    let inner = py.detach(|| {
+    py.detach(|| {
         guard(|| {
             let opts = ReadOptions { fs_hz: fs };
             let files: Vec<RecordFile> = paths
@@ -355,10 +494,13 @@ fn read_records(
                 .map(|f| records::read_record(f, &opts))
                 .collect::<Result<_, _>>()
                 .map_err(lib_error)?;
-            records::select(&files, &inputs, outputs.as_deref()).map_err(lib_error)
+            let inner = records::select(&files, &inputs, outputs.as_deref()).map_err(lib_error)?;
+            Ok(Campaign {
+                inner,
+                files: Some(files.iter().map(FileMeta::of).collect()),
+            })
         })
-    })?;
-    Ok(Campaign { inner })
+    })
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -10,14 +10,14 @@ use ident::{Intersample, Jackknife};
 use num_complex::Complex64;
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
+use records::consistency::ByLine;
 use serde::{Deserialize, Serialize};
-use study::analysis::{AnalysisSettings, Screening, analyze, identifier};
+use study::analysis::{AnalysisSettings, Screening, analyze, analyze_located, identifier};
 use study::scenario::ParametrizationSetting;
 
 use crate::arrays::{self, matrix, rows, vector};
 use crate::campaign::Campaign;
-use crate::{error, from_state, guard, lib_error, lib_error_in, reduce, to_state};
+use crate::{Reduced, error, from_state, guard, lib_error, lib_error_in, reduce, to_state};
 
 /// Where an identification came from (the `source` of the command line's
 /// JSON).
@@ -42,6 +42,9 @@ pub struct IdentState {
     /// `Vec<records::quality::HitQuality>` as JSON (that type serializes
     /// only): what the command line prints.
     hit_quality_json: String,
+    /// `Vec<records::consistency::ConsistencyFlag>` as JSON.
+    inconsistent_hits_json: String,
+    consistency_notes: Vec<String>,
     dropped_hits: Vec<String>,
     uncertainty: Option<Jackknife>,
     uncertainty_skipped: Option<String>,
@@ -189,7 +192,24 @@ impl Identification {
         arrays::json(py, &self.state.hit_quality_json)
     }
 
-    /// Labels (files) of the hits left out by ``drop_bad_hits=True``.
+    /// Hits inconsistent with the others (dead, copied or spiked channels,
+    /// duplicates, level, spectrum or residual against the joint model):
+    /// dicts with ``record`` (zero-based position in the campaign given),
+    /// ``file``, ``channel``, ``kind`` and ``message``, as
+    /// ``inconsistent_hits`` of the command line's JSON.
+    #[getter]
+    fn inconsistent_hits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        arrays::json(py, &self.state.inconsistent_hits_json)
+    }
+
+    /// Findings of the consistency checks that flag no hit.
+    #[getter]
+    fn consistency_notes(&self) -> Vec<String> {
+        self.state.consistency_notes.clone()
+    }
+
+    /// Labels (files) of the hits left out: inconsistent ones, and with
+    /// ``drop_bad_hits=True`` those failing a quality check.
     #[getter]
     fn dropped_hits(&self) -> Vec<String> {
         self.state.dropped_hits.clone()
@@ -252,8 +272,8 @@ impl Identification {
     }
 
     /// Whether this is the identification of a given realization.
-    #[getter]
-    fn from_realization(&self) -> bool {
+    #[getter(from_realization)]
+    fn is_realization(&self) -> bool {
         self.state.source.realization
     }
 
@@ -325,10 +345,7 @@ impl Identification {
             .is_ok_and(|o| o.get().state == self.state)
     }
 
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
         reduce(py, "Identification", to_state(py, &self.state)?)
     }
 }
@@ -437,10 +454,7 @@ impl Mode {
         )
     }
 
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
         reduce(py, "Mode", to_state(py, &self.state)?)
     }
 }
@@ -574,10 +588,7 @@ impl Uncertainty {
             self.state.failed.len()
         )
     }
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
         reduce(py, "Uncertainty", to_state(py, &self.state)?)
     }
 }
@@ -694,10 +705,7 @@ impl Refined {
             self.state.stop
         )
     }
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
         reduce(py, "Refined", to_state(py, &self.state)?)
     }
 }
@@ -765,10 +773,7 @@ impl RefinedMode {
             self.state.damping_ratio_std
         )
     }
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
         reduce(py, "RefinedMode", to_state(py, &self.state)?)
     }
 }
@@ -791,14 +796,38 @@ fn extract_pick(obj: &Bound<'_, PyAny>) -> PyResult<Pick> {
 }
 
 /// `collocated` as `(output, input)` indices among the names (as the
-/// command line's `--collocated OUT:IN`).
+/// command line's `--collocated OUT:IN`): a pair of zero-based indices or
+/// channel names, or the text `"OUT:IN"`.
 fn resolve_collocated(
-    collocated: Option<(Bound<'_, PyAny>, Bound<'_, PyAny>)>,
+    collocated: Option<&Bound<'_, PyAny>>,
     outputs: &[String],
     inputs: &[String],
 ) -> PyResult<(usize, usize)> {
-    let Some((o, i)) = collocated else {
+    let Some(given) = collocated else {
         return Ok((0, 0));
+    };
+    let (o, i) = if let Ok(text) = given.extract::<String>() {
+        let (o, i) = text.split_once(':').ok_or_else(|| {
+            error(format!(
+                "collocated: expected (output, input) or 'OUT:IN' (e.g. (0, 0) or 'acc1:force'), got '{text}'"
+            ))
+        })?;
+        let pick = |t: &str| match t.trim().parse::<usize>() {
+            Ok(k) => Pick::Index(k),
+            Err(_) => Pick::Name(t.to_string()),
+        };
+        (pick(o), pick(i))
+    } else {
+        let pair: Vec<Bound<'_, PyAny>> = given.extract().map_err(|_| {
+            error("collocated: expected (output, input) as zero-based indices or channel names")
+        })?;
+        let [o, i] = pair.as_slice() else {
+            return Err(error(format!(
+                "collocated: expected 2 entries (output, input), got {}",
+                pair.len()
+            )));
+        };
+        (extract_pick(o)?, extract_pick(i)?)
     };
     let find = |what: &str, pick: Pick, names: &[String]| -> PyResult<usize> {
         match pick {
@@ -819,10 +848,12 @@ fn resolve_collocated(
                 }),
         }
     };
-    Ok((
-        find("output", extract_pick(&o)?, outputs)?,
-        find("input", extract_pick(&i)?, inputs)?,
-    ))
+    Ok((find("output", o, outputs)?, find("input", i, inputs)?))
+}
+
+/// A value's JSON text (for the fields kept as the command line prints them).
+fn json_text<T: Serialize>(value: &T) -> PyResult<String> {
+    serde_json::to_string(value).map_err(|e| error(format!("cannot convert to JSON: {e}")))
 }
 
 fn parse_intersample(text: &str) -> PyResult<Intersample> {
@@ -857,7 +888,7 @@ fn check_observer_order(observer_order: Option<usize>) -> PyResult<()> {
 fn identify(
     py: Python<'_>,
     campaign: &Bound<'_, PyAny>,
-    collocated: Option<(Bound<'_, PyAny>, Bound<'_, PyAny>)>,
+    collocated: Option<&Bound<'_, PyAny>>,
     order: Option<usize>,
     observer_order: Option<usize>,
     intersample: &str,
@@ -871,6 +902,11 @@ fn identify(
         error("campaign: expected a frameid.Campaign (from frameid.Campaign(force, acc, dt_s), read_records or simulate)")
     })?;
     let c = &campaign.get().inner;
+    let files: Option<Vec<records::RecordFile>> = campaign
+        .get()
+        .files
+        .as_ref()
+        .map(|f| f.iter().map(|m| m.record_file()).collect());
     check_observer_order(observer_order)?;
     let intersample = parse_intersample(intersample)?;
     let parametrization: ParametrizationSetting = parametrization
@@ -902,9 +938,14 @@ fn identify(
     };
     let state = py.detach(|| {
         guard(|| {
-            let a = analyze(c, &settings).map_err(lib_error)?;
-            let hit_quality_json = serde_json::to_string(&a.hit_quality)
-                .map_err(|e| error(format!("cannot convert the hit quality: {e}")))?;
+            // Records from files: messages name the line of a sample.
+            let a = match &files {
+                Some(files) => analyze_located(c, &ByLine(files), &settings),
+                None => analyze(c, &settings),
+            }
+            .map_err(lib_error)?;
+            let hit_quality_json = json_text(&a.hit_quality)?;
+            let inconsistent_hits_json = json_text(&a.consistency.flags)?;
             let ac = &a.campaign;
             Ok(IdentState {
                 source: Source {
@@ -923,6 +964,8 @@ fn identify(
                     .map(|&i| a.hit_quality[i].file.clone())
                     .collect(),
                 hit_quality_json,
+                inconsistent_hits_json,
+                consistency_notes: a.consistency.notes,
                 uncertainty: a.uncertainty,
                 uncertainty_skipped: a.uncertainty_skipped,
                 refinement: a.refinement,
@@ -943,7 +986,7 @@ fn identify(
 fn identify_realization(
     py: Python<'_>,
     path: PathBuf,
-    collocated: Option<(Bound<'_, PyAny>, Bound<'_, PyAny>)>,
+    collocated: Option<&Bound<'_, PyAny>>,
     order: Option<usize>,
     intersample: &str,
 ) -> PyResult<Identification> {
@@ -974,6 +1017,8 @@ fn identify_realization(
             },
             identification: result,
             hit_quality_json: "[]".into(),
+            inconsistent_hits_json: "[]".into(),
+            consistency_notes: Vec::new(),
             dropped_hits: Vec::new(),
             uncertainty: None,
             uncertainty_skipped: None,

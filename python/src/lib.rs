@@ -91,13 +91,12 @@ pub(crate) fn from_state<T: serde::de::DeserializeOwned>(bytes: &[u8]) -> PyResu
     rmp_serde::from_slice(bytes).map_err(|e| error(format!("cannot unpickle: {e}")))
 }
 
+/// What `__reduce__` returns: `(callable, (class name, state))`.
+pub(crate) type Reduced<'py> = PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))>;
+
 /// The `(callable, args)` pair of `__reduce__`: `frameid._native._restore`
 /// called with the class name and its state.
-pub(crate) fn reduce<'py>(
-    py: Python<'py>,
-    class: &str,
-    state: Py<PyBytes>,
-) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+pub(crate) fn reduce<'py>(py: Python<'py>, class: &str, state: Py<PyBytes>) -> Reduced<'py> {
     let restore = py.import("frameid._native")?.getattr("_restore")?;
     Ok((restore, (class.to_string(), state)))
 }

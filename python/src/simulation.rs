@@ -2,14 +2,13 @@
 //! `frameid.bound` (the Cramér–Rao bound of a scenario, as sweeps compute
 //! it at every noise level).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use num_complex::Complex64;
 use numpy::IntoPyArray;
 use numpy::ndarray::Array2;
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
 use serde::{Deserialize, Serialize};
 use sim::{Acquisition, AnalyzerSettings};
 use study::experiment::{TrueModel, cramer_rao_bound, noise_at};
@@ -18,7 +17,7 @@ use study::{LoadedScenario, Scenario};
 
 use crate::arrays::{self, rows, vector};
 use crate::campaign::Campaign;
-use crate::{error, from_state, guard, lib_error, lib_error_in, reduce, to_state};
+use crate::{Reduced, error, from_state, guard, lib_error, lib_error_in, reduce, to_state};
 
 /// Largest record output written without ``force=True``, bytes (as the
 /// command line's `MAX_OUTPUT_BYTES`).
@@ -38,7 +37,7 @@ pub fn check_output_size(what: &str, bytes: u128, force: bool) -> PyResult<()> {
 }
 
 /// Loads a scenario file with the GIL released.
-pub fn load_scenario(py: Python<'_>, path: &PathBuf) -> PyResult<LoadedScenario> {
+pub fn load_scenario(py: Python<'_>, path: &Path) -> PyResult<LoadedScenario> {
     py.detach(|| guard(|| LoadedScenario::load(path).map_err(lib_error)))
 }
 
@@ -181,10 +180,7 @@ impl Truth {
             .cast::<Truth>()
             .is_ok_and(|o| o.get().state == self.state)
     }
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
         reduce(py, "Truth", to_state(py, &self.state)?)
     }
 }
@@ -313,7 +309,7 @@ fn simulate(
             Ok((campaign.to_ident(), truth))
         })
     })?;
-    Ok((Campaign { inner: campaign }, Truth { state: truth }))
+    Ok((Campaign::from_ident(campaign), Truth { state: truth }))
 }
 
 /// The Cramér–Rao bound as relative standard deviations: per mode of the
@@ -390,10 +386,7 @@ impl CramerRao {
             self.state.scenario, self.state.noise, b.mass, b.stiffness, b.damping
         )
     }
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
         reduce(py, "Bound", to_state(py, &self.state)?)
     }
 }

@@ -14,13 +14,12 @@ use numpy::PyArray1;
 use numpy::PyArray2;
 use numpy::ndarray::Array2;
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
 use serde::{Deserialize, Serialize};
 use study::sweep::{self as lib, Manifest, Outcome, Plan, Shard, TrialRow};
 
 use crate::arrays::{self, vector};
 use crate::simulation::{check_output_size, load_scenario};
-use crate::{error, from_state, guard, lib_error, reduce, to_state};
+use crate::{Reduced, error, from_state, guard, lib_error, reduce, to_state};
 
 /// Most worker threads (as the command line's `MAX_THREADS`).
 const MAX_THREADS: usize = 1024;
@@ -390,10 +389,7 @@ impl Sweep {
                 && o.summary_json == self.data.summary_json
         })
     }
-    fn __reduce__<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyAny>, (String, Py<PyBytes>))> {
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
         let manifest_json = serde_json::to_string(&self.data.manifest)
             .map_err(|e| error(format!("cannot pickle: {e}")))?;
         let state = SweepState {
@@ -457,7 +453,7 @@ fn check_noise_levels(levels: &[f64]) -> PyResult<()> {
 fn sweep(
     py: Python<'_>,
     scenario: PathBuf,
-    noise: Option<Vec<f64>>,
+    noise: Option<&Bound<'_, PyAny>>,
     trials: Option<usize>,
     seed: Option<u64>,
     shard: Option<&Bound<'_, PyAny>>,
@@ -465,6 +461,14 @@ fn sweep(
     out: Option<PathBuf>,
     force: bool,
 ) -> PyResult<Sweep> {
+    let noise: Option<Vec<f64>> = noise
+        .map(|n| {
+            n.extract::<f64>().map(|x| vec![x]).or_else(|_| {
+                n.extract::<Vec<f64>>()
+                    .map_err(|_| error("noise: expected a level or a sequence of levels (fractions of each channel's RMS)"))
+            })
+        })
+        .transpose()?;
     if let Some(levels) = &noise {
         check_noise_levels(levels)?;
     }
@@ -530,7 +534,7 @@ fn sweep(
 
 /// A part of a merge: a `Sweep` or a directory.
 enum Part {
-    Memory(SweepData, String),
+    Memory(Box<SweepData>, String),
     Dir(PathBuf),
 }
 
@@ -547,7 +551,7 @@ fn merge(py: Python<'_>, parts: Vec<Bound<'_, PyAny>>, out: Option<PathBuf>) -> 
         .map(|p| {
             if let Ok(s) = p.cast::<Sweep>() {
                 let s = s.get();
-                Ok(Part::Memory(s.data.clone(), s.name()))
+                Ok(Part::Memory(Box::new(s.data.clone()), s.name()))
             } else if let Ok(path) = p.extract::<PathBuf>() {
                 Ok(Part::Dir(path))
             } else {
@@ -581,7 +585,7 @@ fn merge(py: Python<'_>, parts: Vec<Bound<'_, PyAny>>, out: Option<PathBuf>) -> 
             let mut named: Vec<(String, SweepData)> = Vec::new();
             for p in parts {
                 match p {
-                    Part::Memory(d, name) => named.push((name, d)),
+                    Part::Memory(d, name) => named.push((name, *d)),
                     Part::Dir(d) => named.push((d.display().to_string(), read_dir(&d)?)),
                 }
             }

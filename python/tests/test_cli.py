@@ -32,7 +32,7 @@ def identify_cli(cli, files, *flags):
 
 
 def same(array, rows):
-    np.testing.assert_array_equal(np.asarray(array), np.asarray(rows, dtype=float))
+    np.testing.assert_array_equal(np.asarray(array), np.asarray(rows))
 
 
 def check_modes(res, doc):
@@ -71,11 +71,41 @@ def test_identify_agrees_with_the_cli(cli, records):
     res = frameid.identify(frameid.read_records(files))
     check_identification(res, doc)
     assert res.hit_quality == doc["hit_quality"]
+    assert res.inconsistent_hits == doc["inconsistent_hits"] == []
+    assert res.consistency_notes == doc["consistency_notes"]
     assert res.dropped_hits == doc["dropped_hits"]
     assert res.uncertainty.to_dict() == doc["uncertainty"]
     assert res.uncertainty_skipped == doc["uncertainty_skipped"]
     same(res.uncertainty.mass_std, doc["uncertainty"]["mass"]["std"])
     same(res.uncertainty.frequencies_hz_std, doc["uncertainty"]["frequencies_hz"]["std"])
+
+
+def test_inconsistent_hits_agree_with_the_cli(cli, records, tmp_path):
+    """A record given twice and a spiked sample: flagged, dropped and named
+    by file and line as the command line does."""
+    files = sorted(str(p) for p in records.glob("hit*.csv"))
+    if not files:
+        files = simulate_cli(cli, records)
+    lines = open(files[3], encoding="utf-8").read().splitlines()
+    cells = lines[400].split(",")
+    cells[2] = str(float(cells[2]) + 50.0)  # a spike on acc1 at line 401
+    lines[400] = ",".join(cells)
+    spiked = tmp_path / "spiked.csv"
+    spiked.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    given = [*files[:3], str(spiked), *files[4:], files[0]]
+    doc = identify_cli(cli, given)
+    res = frameid.identify(frameid.read_records(given))
+    assert doc["inconsistent_hits"], doc["warnings"]
+    assert res.inconsistent_hits == doc["inconsistent_hits"]
+    assert res.consistency_notes == doc["consistency_notes"]
+    assert res.dropped_hits == doc["dropped_hits"]
+    assert res.warnings == doc["warnings"]
+    check_identification(res, doc)
+    # The pickled campaign keeps the lines of its files.
+    import pickle
+
+    again = frameid.identify(pickle.loads(pickle.dumps(frameid.read_records(given))))
+    assert again.warnings == doc["warnings"]
 
 
 def test_identify_with_options_agrees_with_the_cli(cli, records):

@@ -103,6 +103,9 @@ def test_campaign_from_numpy_identifies_as_the_simulated_one(case1, case1_result
     res = frameid.identify(named, collocated=("A", "f"), uncertainty=False)
     assert res.collocated == (0, 0) and res.outputs == ["a", "b"]
     np.testing.assert_array_equal(res.mass, case1_result.mass)
+    # As the command line's --collocated OUT:IN, or any pair.
+    assert frameid.identify(named, collocated="a:F", uncertainty=False).collocated == (0, 0)
+    assert frameid.identify(named, collocated=[0, "F"], uncertainty=False).collocated == (0, 0)
 
 
 def test_refine(case1, case1_refined):
@@ -213,8 +216,10 @@ def test_sweep_shard_contract():
     assert set(sw.status) == {"ok"}
     assert sw.trials_csv().startswith("axis,noise,trial,seed,status,reason,message,f1_err")
     # "k/n" works as well, and the shard is the same.
-    again = frameid.sweep(CASE1, noise=[0, 0.01], trials=50, seed=1, shard="1/4", threads=1)
+    again = frameid.sweep(CASE1, noise=np.array([0, 0.01]), trials=np.int64(50), seed=1, shard="1/4", threads=1)
     assert again == sw
+    # One level may be given as a number.
+    assert frameid.sweep(CASE1, noise=0.01, trials=2, shard=(1, 2), threads=1).noise_levels == [0.01]
 
 
 def test_sweep_summary_and_report(tmp_path):

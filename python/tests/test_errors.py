@@ -1,6 +1,8 @@
 """Bad input raises frameid.Error (a ValueError) with the message the
 command line prints, never a crash."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -90,15 +92,21 @@ def test_identification_errors_match_the_cli(cli, hits):
         assert got == expected, flags
 
 
-def test_no_hit_and_strict_match_the_cli(cli, hits, tmp_path):
-    # A record whose force is all zeros: no hit.
+def test_dead_force_and_strict_match_the_cli(cli, hits, tmp_path):
+    # A record whose force is all zeros: no hit, and a dead channel.
     lines = open(hits[1], encoding="utf-8").read().splitlines()
     zero = [lines[0]] + [",".join([c.split(",")[0], "0"] + c.split(",")[2:]) for c in lines[1:]]
     silent = write(tmp_path / "hit02.csv", "\n".join(zero) + "\n")
     files = [hits[0], silent, *hits[2:]]
-    expected = cli_message(cli, "identify", *files)
-    assert "no hit" in expected
-    assert py_message(frameid.identify, frameid.read_records(files)) == expected
+    expected = cli_message(cli, "identify", *files, "--strict")
+    assert py_message(frameid.identify, frameid.read_records(files), strict=True) == expected
+    # Without --strict the hit is dropped with the same warnings.
+    code, out, err = cli("identify", *files, "--json")
+    assert code == 0, err
+    doc = json.loads(out)
+    res = frameid.identify(frameid.read_records(files))
+    assert res.dropped_hits == doc["dropped_hits"] == [silent]
+    assert res.warnings == doc["warnings"]
 
 
 def test_scenario_errors_match_the_cli(cli, tmp_path):
@@ -170,6 +178,9 @@ def test_argument_errors(case1):
         (lambda: frameid.identify(camp, collocated=(0, 1)), "collocated: input index 1 is out of range"),
         (lambda: frameid.identify(camp, collocated=("acc7", 0)), "collocated: no output named 'acc7'"),
         (lambda: frameid.identify(camp, collocated=(-1, 0)), "collocated: index -1 is negative"),
+        (lambda: frameid.identify(camp, collocated=(0, 0, 0)), "collocated: expected 2 entries"),
+        (lambda: frameid.identify(camp, collocated="acc1"), "collocated: expected .* 'OUT:IN'"),
+        (lambda: frameid.identify(camp, collocated="acc1:hammer"), "collocated: no input named 'hammer'"),
         (lambda: frameid.identify(camp, intersample="linear"), "intersample: expected `zoh` or `bandlimited`"),
         (lambda: frameid.identify(camp, observer_order=0), "observer_order: must be at least 1"),
         (lambda: frameid.identify(camp, parametrization="diagonal", refine=True), "parametrization: expected"),
