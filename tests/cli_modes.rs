@@ -104,9 +104,10 @@ fn the_user_chooses_with_modes_or_band_and_strict_refuses() {
         .collect();
     assert!((f[1] - 6.1).abs() < 0.05, "{f:?}");
     assert!(rel(&wrong["mass"], MASS) > 0.2);
-    // --band holding the two floor modes only.
-    let band = identify(&files, &["--band", "7:20"]);
+    // --band holding all three: the shear-frame choice inside it.
+    let band = identify(&files, &["--band", "2:10"]);
     assert_eq!(band["mode_selection"], "band");
+    assert_eq!(band["mass"], auto["mass"]);
     // A band with one mode: refused, naming the band and the modes found.
     let mut args: Vec<&str> = vec!["identify"];
     args.extend(files.iter().map(String::as_str));

@@ -322,23 +322,19 @@ pub fn analyze_located(
             r
         }
     };
-    // Every kept hit against the model of the other hits (its leave-one-out
-    // identification, which the jackknife reuses): a hit whose outputs do
-    // not follow it is dropped (if such hits are a minority) and the rest
-    // identified again, once.
+    // Every kept hit against the model of the hits that agree best with the
+    // joint model (the better half): a hit whose outputs do not follow it
+    // is dropped (if such hits are a minority) and the rest identified
+    // again, once.
     let mut residual_notes = Vec::new();
-    let mut loo = None;
     if keep.len() >= settings.consistency.min_hits {
-        let results = ident::leave_one_out(id, &c, Some(&result));
-        let flags = residual_flags(&c, &keep, &results, &settings.consistency);
+        let flags = residual_flags(&c, &keep, &result, id, &settings.consistency);
         let odd: Vec<usize> = {
             let mut v: Vec<usize> = flags.iter().map(|f| f.record).collect();
             v.dedup();
             v
         };
-        if odd.is_empty() {
-            loo = Some(results);
-        } else {
+        if !odd.is_empty() {
             if settings.screening == Screening::Strict {
                 return Err(AnalysisError::StrictInconsistent {
                     failing: odd.len(),
@@ -355,9 +351,8 @@ pub fn analyze_located(
                     .identify(&c.records, c.dt_s)
                     .map_err(|e| identification_error(e, &c, id))?;
             } else {
-                loo = Some(results);
                 residual_notes.push(format!(
-                    "the residuals of {} of {} hits stand out against the model of the other hits; as they are not a minority no hit is dropped (is the campaign a mix of set-ups?): {}",
+                    "the residuals of {} of {} hits stand out against the model of the others; as they are not a minority no hit is dropped (is the campaign a mix of set-ups?): {}",
                     odd.len(),
                     keep.len(),
                     flags.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ")
@@ -371,11 +366,7 @@ pub fn analyze_located(
         check_modes_against_outputs(&result, &c)?;
     }
     let (uncertainty, uncertainty_skipped) = if settings.uncertainty {
-        let jk = match loo {
-            Some(results) => ident::jackknife_from(&c, &result, results),
-            None => ident::jackknife(id, &c, &result),
-        };
-        match jk {
+        match ident::jackknife(id, &c, &result) {
             Ok(u) => (Some(u), None),
             Err(e) => (None, Some(e.to_string())),
         }
@@ -540,61 +531,76 @@ fn without_breaking_hit(
     })
 }
 
-/// The residual of every hit of `c` (hit `i` of `c` is record `index[i]` of
-/// the campaign given) against the model of the other hits, `loo[i]` (its
-/// leave-one-out identification): per output, the energy of `y - y_model`
-/// over that of `y_model`, the model's response to the hit's inputs (with
-/// the realization's polarity undone). A hit is flagged when an output's
-/// residual exceeds both `residual_factor` times the median over the hits
-/// and `residual_floor`. Hits whose leave-one-out identification failed are
-/// not judged here (the jackknife reports them).
+/// Per hit of `c` and output: the residual share (energy of `y - y_model`
+/// over that of `y_model`, the model's response to the hit's inputs with
+/// the realization's polarity undone) and the gain (least-squares factor
+/// from `y_model` to `y`).
+fn residual_shares(c: &Campaign, model: &Identification) -> Vec<Vec<(f64, f64)>> {
+    let sign = if model.polarity_flipped { -1.0 } else { 1.0 };
+    c.records
+        .iter()
+        .map(|r| {
+            let p = model.realization.simulate(&r.inputs);
+            (0..c.outputs.len())
+                .map(|j| {
+                    let (mut d, mut e, mut x) = (0.0, 0.0, 0.0);
+                    for (y, q) in r.outputs.row(j).iter().zip(p.row(j).iter()) {
+                        let q = sign * q;
+                        d += (y - q) * (y - q);
+                        e += q * q;
+                        x += y * q;
+                    }
+                    if e > 0.0 {
+                        (d / e, x / e)
+                    } else {
+                        (f64::INFINITY, 0.0)
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Every hit of `c` (hit `i` of `c` is record `index[i]` of the campaign
+/// given) against the model of its core: the better half of the hits by
+/// their residual against the joint model `joint`, identified again on
+/// their own (so that one bad hit, which pulls the joint model towards
+/// itself, does not hide behind it). A hit is flagged when, for an output,
+///
+/// - its gain differs from the median gain over the hits by more than
+///   `transfer_floor` and `transfer_sigmas` robust deviations (a
+///   [`Inconsistency::Transfer`] flag), or
+/// - its residual share exceeds `residual_factor` times the median over the
+///   hits and `residual_floor` ([`Inconsistency::Residual`]).
 fn residual_flags(
     c: &Campaign,
     index: &[usize],
-    loo: &[Result<Identification, ident::Error>],
+    joint: &Identification,
+    id: &Identifier,
     settings: &ConsistencySettings,
 ) -> Vec<ConsistencyFlag> {
     let m = c.outputs.len();
-    // shares[k][j] = (residual share, gain): hit k, output j (None: no
-    // model without the hit).
-    let shares: Vec<Option<Vec<(f64, f64)>>> = c
-        .records
-        .iter()
-        .zip(loo)
-        .map(|(r, model)| {
-            let model = model.as_ref().ok()?;
-            let sign = if model.polarity_flipped { -1.0 } else { 1.0 };
-            let p = model.realization.simulate(&r.inputs);
-            Some(
-                (0..m)
-                    .map(|j| {
-                        let (mut d, mut e, mut x) = (0.0, 0.0, 0.0);
-                        for (y, q) in r.outputs.row(j).iter().zip(p.row(j).iter()) {
-                            let q = sign * q;
-                            d += (y - q) * (y - q);
-                            e += q * q;
-                            x += y * q;
-                        }
-                        if e > 0.0 {
-                            (d / e, x / e)
-                        } else {
-                            (f64::INFINITY, 0.0)
-                        }
-                    })
-                    .collect(),
-            )
-        })
-        .collect();
-    let judged = shares.iter().filter(|s| s.is_some()).count();
-    if judged < settings.min_hits {
-        return Vec::new();
-    }
+    let n = c.len();
+    let against_joint = residual_shares(c, joint);
+    let worst = |s: &Vec<(f64, f64)>| s.iter().map(|v| v.0).fold(0.0, f64::max);
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| worst(&against_joint[a]).total_cmp(&worst(&against_joint[b])));
+    let mut core: Vec<usize> = order[..n.div_ceil(2).max(2)].to_vec();
+    core.sort_unstable();
+    let core_campaign = c.subset(&core);
+    let core_model = id.identify(&core_campaign.records, core_campaign.dt_s);
+    let shares = match &core_model {
+        Ok(model) => residual_shares(c, model),
+        Err(_) => against_joint,
+    };
     let median = records::consistency::median;
+    // Medians and spreads over every hit (robust to a minority of odd ones);
+    // the core only provides the uncontaminated model.
     let column = |j: usize, g: fn(&(f64, f64)) -> f64| -> Vec<f64> {
-        shares.iter().flatten().map(|s| g(&s[j])).collect()
+        shares.iter().map(|s| g(&s[j])).collect()
     };
     let medians: Vec<f64> = (0..m).map(|j| median(&column(j, |s| s.0))).collect();
-    // Gains: median and robust spread (1.4826 MAD) per output.
+    // Gains: median and robust spread (1.4826 MAD) over the core, per output.
     let gains: Vec<(f64, f64)> = (0..m)
         .map(|j| {
             let g = column(j, |s| s.1);
@@ -603,9 +609,9 @@ fn residual_flags(
             (med, 1.4826 * median(&dev))
         })
         .collect();
+    let judged = n;
     let mut flags = Vec::new();
     for (k, share) in shares.iter().enumerate() {
-        let Some(share) = share else { continue };
         for j in 0..m {
             let ((r, g), med) = (share[j], medians[j]);
             let (g_med, g_sd) = gains[j];
@@ -620,7 +626,7 @@ fn residual_flags(
                     channel: Some(c.outputs[j].clone()),
                     kind: Inconsistency::Transfer,
                     message: format!(
-                        "its gain from {} against the model of the other hits is {} times the median gain over the {judged} hits ({} robust deviations; limits {} % and {}): a calibration, sign or set-up change in this hit",
+                        "its gain from {} is {} times the median gain over the {judged} hits against the model of the hits that agree best ({} robust deviations; limits {} % and {}): a calibration, sign or set-up change in this hit",
                         c.inputs.join(", "),
                         sig(g / g_med, 4),
                         sig(off / g_sd.max(f64::MIN_POSITIVE), 3),
@@ -637,7 +643,7 @@ fn residual_flags(
                     channel: Some(c.outputs[j].clone()),
                     kind: Inconsistency::Residual,
                     message: format!(
-                        "does not follow the model of the other hits: residual {} % of the predicted response energy, {}x the median {} % over the {judged} hits (limits {}x and {} %): its transfer from {} differs (gain, sign, sensor moved or swapped, a changed set-up?)",
+                        "does not follow the model of the other hits: residual {} % of the predicted response energy, {}x the median {} % over the {judged} hits against the model of the hits that agree best (limits {}x and {} %): its transfer from {} differs (gain, sign, delay, sensor moved or swapped, a changed set-up?)",
                         sig(100.0 * r, 3),
                         sig(r / med.max(f64::MIN_POSITIVE), 3),
                         sig(100.0 * med, 3),
