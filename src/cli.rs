@@ -144,6 +144,9 @@ pub struct IdentifyArgs {
     /// Write the result as JSON on standard output
     #[arg(long)]
     pub json: bool,
+    /// What excites the records: `hammer`, `continuous` (a shaker: random, burst random, chirp, swept sine) or `auto` (judged per record from the force's crest factor; reported)
+    #[arg(long, default_value = "auto")]
+    pub excitation: records::quality::Excitation,
     /// Refuse the campaign if any hit fails a quality check (double hit, clipping, long pulse, undecayed response, low SNR) or is inconsistent with the other hits (dead, copied or spiked channel, duplicate record, level, spectrum or residual against the joint model; without --strict such hits are dropped with a warning)
     #[arg(long, conflicts_with = "drop_bad_hits")]
     pub strict: bool,

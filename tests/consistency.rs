@@ -180,7 +180,7 @@ fn dead_copied_spiked_and_mis_gained_hits_are_dropped_or_refused() {
         &gained,
         &["transfer"],
         Some("acc2"),
-        "1.2 times the median gain",
+        "1.200 times the median gain",
     );
 
     // The two accelerometers swapped in one hit.

@@ -181,6 +181,10 @@ fn identify_records(args: &IdentifyArgs, modes: ident::ModeSelection) -> Result<
         } else {
             Screening::Warn
         },
+        quality: records::quality::QualitySettings {
+            excitation: args.excitation,
+            ..Default::default()
+        },
         uncertainty: !args.no_uncertainty,
         refine: args.refine.then_some(args.parametrization),
         ..AnalysisSettings::default()
