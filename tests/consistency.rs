@@ -203,7 +203,7 @@ fn dead_copied_spiked_and_mis_gained_hits_are_dropped_or_refused() {
         &swapped,
         &["residual", "transfer"],
         None,
-        "the model of the other hits",
+        "against the model of the hits that agree best",
     );
 }
 

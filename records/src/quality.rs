@@ -226,6 +226,11 @@ impl QualitySettings {
     }
 }
 
+/// Fewest samples for `auto` to take a record for a continuous one: 256,
+/// eight Welch segments of 32 samples (16 frequency bins) for the
+/// coherence. Shorter records are judged hammer records.
+pub const MIN_CONTINUOUS_SAMPLES: usize = 256;
+
 /// What excites the records.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -528,7 +533,11 @@ pub fn assess_hit(
     };
     let excitation = match settings.excitation {
         Excitation::Auto => {
+            // Records shorter than MIN_CONTINUOUS_SAMPLES are hammer
+            // records: a shaker record that short cannot be averaged, and a
+            // pulse over a few percent of it has a low crest factor.
             let hammer = hit.peak == 0.0
+                || n < MIN_CONTINUOUS_SAMPLES
                 || (hit.peak_to_noise() >= settings.min_hit_peak_to_noise
                     && crest >= settings.min_hammer_crest);
             if hammer {
