@@ -761,9 +761,7 @@ fn check_orders(c: &Campaign, id: &Identifier) -> Result<(), AnalysisError> {
 /// (torsional, out-of-plane or local modes a shear model lacks, or a mode of
 /// a floor without an accelerometer).
 pub fn out_of_model_modes(r: &Identification) -> Vec<usize> {
-    (0..r.modes.len())
-        .filter(|j| r.modes[*j].structural && !r.mkr_modes.contains(j))
-        .collect()
+    r.out_of_model_modes()
 }
 
 /// Under `--strict`: the records showing more structural modes than there

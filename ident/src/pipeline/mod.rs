@@ -1014,6 +1014,15 @@ pub struct Identification {
 }
 
 impl Identification {
+    /// Indices into `modes` of the structural modes the model does not use
+    /// (torsional, out-of-plane or local modes a shear model lacks, or the
+    /// mode of a floor without an accelerometer), ascending.
+    pub fn out_of_model_modes(&self) -> Vec<usize> {
+        (0..self.modes.len())
+            .filter(|j| self.modes[*j].structural && !self.mkr_modes.contains(j))
+            .collect()
+    }
+
     fn ensure_finite(&self) -> Result<(), Error> {
         let matrices = [
             ("mass", &self.mass),
@@ -1290,4 +1299,64 @@ fn next_subset(subset: &mut [usize], n: usize) -> bool {
 
 fn default_rule() -> SelectionRule {
     SelectionRule::AllStructural
+}
+
+#[cfg(test)]
+mod selection_tests {
+    use super::*;
+
+    #[test]
+    fn a_shear_frame_has_no_defect_and_couplings_are_measured() {
+        // Lumped masses and storey springs k1 = 200, k2 = 430: exactly 0.
+        let m = DMatrix::from_row_slice(2, 2, &[0.3, 0.0, 0.0, 0.34]);
+        let k = DMatrix::from_row_slice(2, 2, &[630.0, -430.0, -430.0, 430.0]);
+        assert_eq!(shear_frame_defect(&m, &k), Some(0.0));
+        // An off-diagonal mass of 0.03 and a top row summing to 20: the
+        // closed form ||off M|| / ||diag M|| + |row 2 sum| / ||K||_F.
+        let m2 = DMatrix::from_row_slice(2, 2, &[0.3, 0.03, 0.03, 0.34]);
+        let k2 = DMatrix::from_row_slice(2, 2, &[630.0, -430.0, -430.0, 450.0]);
+        let want =
+            (2.0f64 * 0.03 * 0.03).sqrt() / (0.3f64 * 0.3 + 0.34 * 0.34).sqrt() + 20.0 / k2.norm();
+        // Same arithmetic in another order: a few ulps.
+        assert!((shear_frame_defect(&m2, &k2).unwrap() - want).abs() < 1e-14);
+        // Not positive definite, or a positive coupling: not a frame.
+        let k3 = DMatrix::from_row_slice(2, 2, &[630.0, 430.0, 430.0, 450.0]);
+        assert_eq!(shear_frame_defect(&m, &k3), None);
+        let m4 = DMatrix::from_row_slice(2, 2, &[0.3, 0.4, 0.4, 0.34]);
+        assert_eq!(shear_frame_defect(&m4, &k), None);
+    }
+
+    #[test]
+    fn subsets_are_enumerated_once_each() {
+        // Every 2-subset of 5 in lexicographic order: C(5, 2) = 10.
+        let mut s = vec![0, 1];
+        let mut seen = vec![s.clone()];
+        while next_subset(&mut s, 5) {
+            seen.push(s.clone());
+        }
+        assert_eq!(seen.len(), 10);
+        assert_eq!(seen.len(), binomial(5, 2));
+        assert_eq!(seen.last().unwrap(), &vec![3, 4]);
+        assert_eq!(binomial(6, 3), 20);
+        assert_eq!(binomial(3, 3), 1);
+        // Large counts saturate (no overflow panic) and exceed the cap.
+        assert!(binomial(70, 35) > MAX_MODE_SUBSETS);
+    }
+
+    #[test]
+    fn selection_settings_are_checked() {
+        let bad = Identifier::default().mode_selection(ModeSelection::Band {
+            low_hz: 5.0,
+            high_hz: 2.0,
+        });
+        assert!(matches!(bad.check(), Err(Error::InvalidParams { .. })));
+        let bad = Identifier::default().mode_selection(ModeSelection::Near {
+            frequencies_hz: vec![2.0, f64::NAN],
+        });
+        assert!(matches!(bad.check(), Err(Error::InvalidParams { .. })));
+        let ok = Identifier::default().mode_selection(ModeSelection::Near {
+            frequencies_hz: vec![2.0, 9.0],
+        });
+        assert!(ok.check().is_ok());
+    }
 }
