@@ -251,6 +251,10 @@ class Identification:
     @property
     def dropped_hits(self) -> list[str]: ...
     @property
+    def mode_selection(self) -> str: ...
+    @property
+    def out_of_model_modes(self) -> list[int]: ...
+    @property
     def uncertainty(self) -> Uncertainty | None: ...
     @property
     def uncertainty_skipped(self) -> str | None: ...
@@ -412,6 +416,9 @@ def identify(
     uncertainty: bool = True,
     refine: bool = False,
     parametrization: str = "full",
+    excitation: str = "auto",
+    modes: Sequence[float] | None = None,
+    band: tuple[float, float] | None = None,
 ) -> Identification:
     """What `frameid identify` runs, with the same defaults."""
 

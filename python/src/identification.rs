@@ -208,6 +208,23 @@ impl Identification {
         self.state.consistency_notes.clone()
     }
 
+    /// How the modes of the model were chosen: ``"all-structural"``,
+    /// ``"shear-frame"``, ``"significance"``, ``"band"`` or ``"near"``.
+    #[getter]
+    fn mode_selection(&self) -> String {
+        serde_json::to_value(self.state.identification.mode_selection)
+            .ok()
+            .and_then(|v| v.as_str().map(str::to_string))
+            .unwrap_or_default()
+    }
+
+    /// Indices into ``modes`` of the structural modes the model does not use
+    /// (``out_of_model_modes`` of the command line's JSON lists the modes).
+    #[getter]
+    fn out_of_model_modes(&self) -> Vec<usize> {
+        self.state.identification.out_of_model_modes()
+    }
+
     /// Labels (files) of the hits left out: inconsistent ones, and with
     /// ``drop_bad_hits=True`` those failing a quality check.
     #[getter]
@@ -881,9 +898,13 @@ fn check_observer_order(observer_order: Option<usize>) -> PyResult<()> {
 /// ``strict``: refuse the campaign if any hit fails a check;
 /// ``drop_bad_hits``: identify without those hits. ``uncertainty``: the
 /// jackknife error bars. ``parametrization`` of the refinement: ``"full"``
-/// or ``"shear-frame"``. Runs without holding the interpreter.
+/// or ``"shear-frame"``. ``excitation``: ``"auto"`` (default), ``"hammer"``
+/// or ``"continuous"`` (shaker records), as ``--excitation``. ``modes``: one
+/// frequency per output (Hz), the structural modes nearest them form the
+/// model (``--modes``); ``band``: ``(low_hz, high_hz)``, only structural modes
+/// inside (``--band``). Runs without holding the interpreter.
 #[pyfunction]
-#[pyo3(signature = (campaign, collocated=None, *, order=None, observer_order=None, intersample="bandlimited", strict=false, drop_bad_hits=false, uncertainty=true, refine=false, parametrization="full"))]
+#[pyo3(signature = (campaign, collocated=None, *, order=None, observer_order=None, intersample="bandlimited", strict=false, drop_bad_hits=false, uncertainty=true, refine=false, parametrization="full", excitation="auto", modes=None, band=None))]
 #[allow(clippy::too_many_arguments)]
 fn identify(
     py: Python<'_>,
@@ -897,7 +918,21 @@ fn identify(
     uncertainty: bool,
     refine: bool,
     parametrization: &str,
+    excitation: &str,
+    modes: Option<Vec<f64>>,
+    band: Option<(f64, f64)>,
 ) -> PyResult<Identification> {
+    let excitation: records::quality::Excitation = excitation
+        .parse()
+        .map_err(|e: String| error(format!("excitation: {e}")))?;
+    let mode_selection = match (modes, band) {
+        (Some(_), Some(_)) => {
+            return Err(error("modes and band: choose one (as --modes and --band)"));
+        }
+        (Some(frequencies_hz), None) => ident::ModeSelection::Near { frequencies_hz },
+        (None, Some((low_hz, high_hz))) => ident::ModeSelection::Band { low_hz, high_hz },
+        (None, None) => ident::ModeSelection::Auto,
+    };
     let campaign = campaign.cast::<Campaign>().map_err(|_| {
         error("campaign: expected a frameid.Campaign (from frameid.Campaign(force, acc, dt_s), read_records or simulate)")
     })?;
@@ -924,7 +959,12 @@ fn identify(
     }
     let collocated = resolve_collocated(collocated, &c.outputs, &c.inputs)?;
     let settings = AnalysisSettings {
-        identifier: identifier(intersample, collocated, order, observer_order),
+        identifier: identifier(intersample, collocated, order, observer_order)
+            .mode_selection(mode_selection),
+        quality: records::quality::QualitySettings {
+            excitation,
+            ..Default::default()
+        },
         screening: if strict {
             Screening::Strict
         } else if drop_bad_hits {

@@ -233,3 +233,25 @@ def test_sweep_summary_and_report(tmp_path):
     html = frameid.report([sw], tmp_path / "r.html", title="case 1 from Python")
     text = open(html, encoding="utf-8").read()
     assert "case 1 from Python" in text and "<svg" in text
+
+
+def test_excitation_modes_and_band_as_on_the_command_line(case1, case1_result):
+    camp, _ = case1
+    # Hammer records of a 2-DOF frame: every structural mode is used.
+    assert case1_result.mode_selection == "all-structural"
+    assert case1_result.out_of_model_modes == []
+    assert all(q["excitation"] == "hammer" for q in case1_result.hit_quality)
+    # The modes nearest 2.7 and 9.2 Hz are the same two modes: same model.
+    near = frameid.identify(camp, uncertainty=False, modes=[2.7, 9.2])
+    assert near.mode_selection == "near"
+    np.testing.assert_array_equal(near.mass, case1_result.mass)
+    band = frameid.identify(camp, uncertainty=False, band=(1.0, 12.0))
+    assert band.mode_selection == "band"
+    # A band holding one mode, both choices at once, an unknown excitation:
+    # frameid.Error naming the keyword or the band.
+    with pytest.raises(frameid.Error, match="the band 5-8 Hz holds 0 structural mode"):
+        frameid.identify(camp, uncertainty=False, band=(5.0, 8.0))
+    with pytest.raises(frameid.Error, match="modes and band: choose one"):
+        frameid.identify(camp, modes=[2.7, 9.2], band=(1.0, 12.0))
+    with pytest.raises(frameid.Error, match="excitation: unknown excitation 'pendulum'"):
+        frameid.identify(camp, excitation="pendulum")
