@@ -182,9 +182,14 @@ fn in_sigmas(a: &nalgebra::DMatrix<f64>, b: &nalgebra::DMatrix<f64>, sd: &[Vec<f
 
 proptest! {
     // 96 cases: every fault kind several times over (about 7 each), in a
-    // few seconds; FRAMEID_PROP_CASES=2000 for a deeper search.
+    // few seconds. The seed is fixed so that the suite is deterministic;
+    // FRAMEID_PROP_CASES=2000 FRAMEID_PROP_SEED=<n> search deeper elsewhere.
     #![proptest_config(ProptestConfig {
         cases: std::env::var("FRAMEID_PROP_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(96),
+        rng_seed: proptest::test_runner::RngSeed::Fixed(
+            std::env::var("FRAMEID_PROP_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(20261126),
+        ),
+        failure_persistence: None,
         ..ProptestConfig::default()
     })]
 
