@@ -23,6 +23,7 @@
 //! | offset | a channel's mean over its RMS with the campaign's median | over 10x the median and over 0.1 |
 //! | residual | each hit's outputs with the joint model of the kept hits (in `study`) | over 10x the median and over 0.1 % of the prediction's energy |
 //! | transfer | each hit's gain to each output against the model of the other hits (in `study`) | over 2 % and over 10 robust deviations from the median gain |
+//! | spike (glitch) | each output sample with the model of the hits that agree best (in `study`) | over 20 robust deviations of the misfit and 3x the median such departure |
 //! | breaks the identification | the joint identification with and without the hit (in `study`) | fails with it, succeeds without it |
 //!
 //! The comparisons across hits need at least [`ConsistencySettings::min_hits`]
@@ -106,6 +107,15 @@ pub struct ConsistencySettings {
     /// deviations (105 campaigns, seeds 1-5), so 5 would flag honest hits.
     /// A gain error in one hit of n moves M and K by about the error over n.
     pub transfer_sigmas: f64,
+    /// A single output sample departing from the model of the hits that
+    /// agree best (in `study`) by more than this many robust deviations of
+    /// the hit's misfit (1.4826 x its median absolute deviation) is a
+    /// glitch: 20 ...
+    pub glitch_sigmas: f64,
+    /// ... and by more than this many times the median over the hits of
+    /// the same largest departure: 3. Honest misfits are noise plus a
+    /// model error concentrated near the hit, which every hit shares.
+    pub glitch_factor: f64,
     /// A channel's mean over its RMS about the mean is flagged when it
     /// exceeds this many times the campaign's median of the same ratio:
     /// 10 (as the level).
@@ -139,6 +149,8 @@ impl Default for ConsistencySettings {
             offset_factor: 10.0,
             offset_floor: 0.1,
             transfer_floor: 0.02,
+            glitch_sigmas: 20.0,
+            glitch_factor: 3.0,
             transfer_sigmas: 10.0,
         }
     }
@@ -154,6 +166,8 @@ impl ConsistencySettings {
             ("residual_factor", self.residual_factor),
             ("offset_factor", self.offset_factor),
             ("transfer_sigmas", self.transfer_sigmas),
+            ("glitch_sigmas", self.glitch_sigmas),
+            ("glitch_factor", self.glitch_factor),
         ];
         for (name, v) in above_one {
             if !(v.is_finite() && v > 1.0) {

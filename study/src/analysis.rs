@@ -328,7 +328,7 @@ pub fn analyze_located(
     // again, once.
     let mut residual_notes = Vec::new();
     if keep.len() >= settings.consistency.min_hits {
-        let flags = residual_flags(&c, &keep, &result, id, &settings.consistency);
+        let flags = residual_flags(&c, &keep, &result, id, locate, &settings.consistency);
         let odd: Vec<usize> = {
             let mut v: Vec<usize> = flags.iter().map(|f| f.record).collect();
             v.dedup();
@@ -577,6 +577,7 @@ fn residual_flags(
     index: &[usize],
     joint: &Identification,
     id: &Identifier,
+    locate: &dyn Locate,
     settings: &ConsistencySettings,
 ) -> Vec<ConsistencyFlag> {
     let m = c.outputs.len();
@@ -594,6 +595,39 @@ fn residual_flags(
         Err(_) => against_joint,
     };
     let median = records::consistency::median;
+    // Single-sample glitches: per hit and output, the largest residual
+    // sample against the core model over the residual's robust scale.
+    let glitches: Vec<Vec<(usize, f64)>> = match &core_model {
+        Ok(model) => {
+            let sign = if model.polarity_flipped { -1.0 } else { 1.0 };
+            c.records
+                .iter()
+                .map(|r| {
+                    let p = model.realization.simulate(&r.inputs);
+                    (0..m)
+                        .map(|j| {
+                            let e: Vec<f64> = r
+                                .outputs
+                                .row(j)
+                                .iter()
+                                .zip(p.row(j).iter())
+                                .map(|(y, q)| y - sign * q)
+                                .collect();
+                            let med = median(&e);
+                            let dev: Vec<f64> = e.iter().map(|v| (v - med).abs()).collect();
+                            let scale = 1.4826 * median(&dev);
+                            let (at, top) = dev
+                                .iter()
+                                .enumerate()
+                                .fold((0, 0.0), |a, (i, &d)| if d > a.1 { (i, d) } else { a });
+                            (at, if scale > 0.0 { top / scale } else { 0.0 })
+                        })
+                        .collect()
+                })
+                .collect()
+        }
+        Err(_) => Vec::new(),
+    };
     // Medians and spreads over every hit (robust to a minority of odd ones);
     // the core only provides the uncontaminated model.
     let column = |j: usize, g: fn(&(f64, f64)) -> f64| -> Vec<f64> {
@@ -610,8 +644,34 @@ fn residual_flags(
         })
         .collect();
     let judged = n;
+    let glitch_medians: Vec<f64> = (0..m)
+        .map(|j| median(&glitches.iter().map(|g| g[j].1).collect::<Vec<_>>()))
+        .collect();
     let mut flags = Vec::new();
     for (k, share) in shares.iter().enumerate() {
+        if let Some(g) = glitches.get(k)
+            && let Some(j) = (0..m).find(|&j| {
+                g[j].1 > settings.glitch_sigmas
+                    && g[j].1 > settings.glitch_factor * glitch_medians[j]
+            })
+        {
+            let (at, z) = g[j];
+            flags.push(ConsistencyFlag {
+                record: index[k],
+                file: c.label(k),
+                channel: Some(c.outputs[j].clone()),
+                kind: Inconsistency::Spike,
+                message: format!(
+                    "{} departs from the model of the hits that agree best by {} robust deviations of the channel's misfit, {}x the median largest departure over the {n} hits (limits {} and {}x): a single-sample glitch",
+                    locate.sample(index[k], &c.outputs[j], at),
+                    sig(z, 3),
+                    sig(z / glitch_medians[j].max(f64::MIN_POSITIVE), 3),
+                    sig(settings.glitch_sigmas, 3),
+                    sig(settings.glitch_factor, 3)
+                ),
+            });
+            continue;
+        }
         for j in 0..m {
             let ((r, g), med) = (share[j], medians[j]);
             let (g_med, g_sd) = gains[j];
