@@ -217,9 +217,8 @@ pub fn leave_one_out(
 }
 
 /// The jackknife of `joint` from the [`leave_one_out`] identifications of
-/// `campaign` at `joint`'s orders (computed once, for example to check every
-/// hit against the model of the others as well).
-pub fn jackknife_from(
+/// `campaign` at `joint`'s orders.
+fn jackknife_from(
     campaign: &Campaign,
     joint: &Identification,
     results: Vec<Result<Identification, Error>>,

@@ -598,16 +598,7 @@ pub fn assess_hit(
     }
 
     let mut channels = Vec::with_capacity(inputs.len() + outputs.len());
-    let all = input_rows
-        .iter()
-        .zip(inputs)
-        .map(|(x, name)| (x, name, Role::Input))
-        .chain(
-            output_rows
-                .iter()
-                .zip(outputs)
-                .map(|(x, name)| (x, name, Role::Output)),
-        );
+    let all = with_roles(&input_rows, inputs, &output_rows, outputs);
     let mut low_snr = Vec::new();
     for (x, name, role) in all {
         let cq = channel_quality(x, name, role, noise_end, noise_ok && is_hit, settings);
@@ -722,16 +713,7 @@ fn assess_continuous(
 ) -> HitQuality {
     let mut flags = Vec::new();
     let mut channels = Vec::with_capacity(inputs.len() + outputs.len());
-    let all = input_rows
-        .iter()
-        .zip(inputs)
-        .map(|(x, name)| (x, name, Role::Input))
-        .chain(
-            output_rows
-                .iter()
-                .zip(outputs)
-                .map(|(x, name)| (x, name, Role::Output)),
-        );
+    let all = with_roles(input_rows, inputs, output_rows, outputs);
     for (x, name, role) in all {
         let mut cq = channel_quality(x, name, role, 0, false, settings);
         cq.tail_ratio = None;
@@ -916,6 +898,24 @@ fn median(x: &[f64]) -> f64 {
     let mid = v.len() / 2;
     let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
     *m
+}
+
+/// Every channel of a record with its name and role, inputs first.
+fn with_roles<'a>(
+    input_rows: &'a [Vec<f64>],
+    inputs: &'a [String],
+    output_rows: &'a [Vec<f64>],
+    outputs: &'a [String],
+) -> impl Iterator<Item = (&'a Vec<f64>, &'a String, Role)> {
+    let ins = input_rows
+        .iter()
+        .zip(inputs)
+        .map(|(x, n)| (x, n, Role::Input));
+    let outs = output_rows
+        .iter()
+        .zip(outputs)
+        .map(|(x, n)| (x, n, Role::Output));
+    ins.chain(outs)
 }
 
 fn rms_about(x: &[f64], base: f64) -> f64 {

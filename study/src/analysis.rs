@@ -421,7 +421,7 @@ pub fn analyze_located(
             .filter(|w| !matches!(w, ident::Warning::ExtraStructuralModes { .. }))
             .map(|w| ident_warning(w, &c)),
     );
-    let outside = out_of_model_modes(&result);
+    let outside = result.out_of_model_modes();
     if !outside.is_empty() {
         let describe = |j: &usize| {
             let md = &result.modes[*j];
@@ -531,11 +531,23 @@ fn without_breaking_hit(
     })
 }
 
-/// Per hit of `c` and output: the residual share (energy of `y - y_model`
-/// over that of `y_model`, the model's response to the hit's inputs with
-/// the realization's polarity undone) and the gain (least-squares factor
-/// from `y_model` to `y`).
-fn residual_shares(c: &Campaign, model: &Identification) -> Vec<Vec<(f64, f64)>> {
+/// How one output of one hit misfits a model's response to the hit's
+/// inputs (`y_model`, with the realization's polarity undone).
+#[derive(Debug, Clone, Copy)]
+struct Misfit {
+    /// Energy of `y - y_model` over that of `y_model`.
+    share: f64,
+    /// Least-squares factor from `y_model` to `y`.
+    gain: f64,
+    /// Sample of the largest residual, and its size in robust deviations
+    /// of the residual (1.4826 x its median absolute deviation).
+    glitch: (usize, f64),
+}
+
+/// The misfit of every output (inner) of every hit of `c` (outer) to
+/// `model`.
+fn misfits(c: &Campaign, model: &Identification) -> Vec<Vec<Misfit>> {
+    let median = records::consistency::median;
     let sign = if model.polarity_flipped { -1.0 } else { 1.0 };
     c.records
         .iter()
@@ -543,17 +555,36 @@ fn residual_shares(c: &Campaign, model: &Identification) -> Vec<Vec<(f64, f64)>>
             let p = model.realization.simulate(&r.inputs);
             (0..c.outputs.len())
                 .map(|j| {
+                    let residual: Vec<f64> = r
+                        .outputs
+                        .row(j)
+                        .iter()
+                        .zip(p.row(j).iter())
+                        .map(|(y, q)| y - sign * q)
+                        .collect();
                     let (mut d, mut e, mut x) = (0.0, 0.0, 0.0);
-                    for (y, q) in r.outputs.row(j).iter().zip(p.row(j).iter()) {
+                    for ((y, q), r) in r.outputs.row(j).iter().zip(p.row(j).iter()).zip(&residual) {
                         let q = sign * q;
-                        d += (y - q) * (y - q);
+                        d += r * r;
                         e += q * q;
                         x += y * q;
                     }
-                    if e > 0.0 {
+                    let (share, gain) = if e > 0.0 {
                         (d / e, x / e)
                     } else {
                         (f64::INFINITY, 0.0)
+                    };
+                    let mid = median(&residual);
+                    let dev: Vec<f64> = residual.iter().map(|v| (v - mid).abs()).collect();
+                    let scale = 1.4826 * median(&dev);
+                    let (at, top) = dev
+                        .iter()
+                        .enumerate()
+                        .fold((0, 0.0), |a, (i, &d)| if d > a.1 { (i, d) } else { a });
+                    Misfit {
+                        share,
+                        gain,
+                        glitch: (at, if scale > 0.0 { top / scale } else { 0.0 }),
                     }
                 })
                 .collect()
@@ -582,80 +613,45 @@ fn residual_flags(
 ) -> Vec<ConsistencyFlag> {
     let m = c.outputs.len();
     let n = c.len();
-    let against_joint = residual_shares(c, joint);
-    let worst = |s: &Vec<(f64, f64)>| s.iter().map(|v| v.0).fold(0.0, f64::max);
+    let against_joint = misfits(c, joint);
+    let worst = |s: &Vec<Misfit>| s.iter().map(|v| v.share).fold(0.0, f64::max);
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&a, &b| worst(&against_joint[a]).total_cmp(&worst(&against_joint[b])));
     let mut core: Vec<usize> = order[..n.div_ceil(2).max(2)].to_vec();
     core.sort_unstable();
     let core_campaign = c.subset(&core);
     let core_model = id.identify(&core_campaign.records, core_campaign.dt_s);
-    let shares = match &core_model {
-        Ok(model) => residual_shares(c, model),
-        Err(_) => against_joint,
+    // Glitches are judged against the core model only.
+    let (shares, glitch_check) = match &core_model {
+        Ok(model) => (misfits(c, model), true),
+        Err(_) => (against_joint, false),
     };
     let median = records::consistency::median;
-    // Single-sample glitches: per hit and output, the largest residual
-    // sample against the core model over the residual's robust scale.
-    let glitches: Vec<Vec<(usize, f64)>> = match &core_model {
-        Ok(model) => {
-            let sign = if model.polarity_flipped { -1.0 } else { 1.0 };
-            c.records
-                .iter()
-                .map(|r| {
-                    let p = model.realization.simulate(&r.inputs);
-                    (0..m)
-                        .map(|j| {
-                            let e: Vec<f64> = r
-                                .outputs
-                                .row(j)
-                                .iter()
-                                .zip(p.row(j).iter())
-                                .map(|(y, q)| y - sign * q)
-                                .collect();
-                            let med = median(&e);
-                            let dev: Vec<f64> = e.iter().map(|v| (v - med).abs()).collect();
-                            let scale = 1.4826 * median(&dev);
-                            let (at, top) = dev
-                                .iter()
-                                .enumerate()
-                                .fold((0, 0.0), |a, (i, &d)| if d > a.1 { (i, d) } else { a });
-                            (at, if scale > 0.0 { top / scale } else { 0.0 })
-                        })
-                        .collect()
-                })
-                .collect()
-        }
-        Err(_) => Vec::new(),
-    };
     // Medians and spreads over every hit (robust to a minority of odd ones);
     // the core only provides the uncontaminated model.
-    let column = |j: usize, g: fn(&(f64, f64)) -> f64| -> Vec<f64> {
-        shares.iter().map(|s| g(&s[j])).collect()
-    };
-    let medians: Vec<f64> = (0..m).map(|j| median(&column(j, |s| s.0))).collect();
+    let column =
+        |j: usize, g: fn(&Misfit) -> f64| -> Vec<f64> { shares.iter().map(|s| g(&s[j])).collect() };
+    let medians: Vec<f64> = (0..m).map(|j| median(&column(j, |s| s.share))).collect();
     // Gains: median and robust spread (1.4826 MAD) over the core, per output.
     let gains: Vec<(f64, f64)> = (0..m)
         .map(|j| {
-            let g = column(j, |s| s.1);
+            let g = column(j, |s| s.gain);
             let med = median(&g);
             let dev: Vec<f64> = g.iter().map(|x| (x - med).abs()).collect();
             (med, 1.4826 * median(&dev))
         })
         .collect();
     let judged = n;
-    let glitch_medians: Vec<f64> = (0..m)
-        .map(|j| median(&glitches.iter().map(|g| g[j].1).collect::<Vec<_>>()))
-        .collect();
+    let glitch_medians: Vec<f64> = (0..m).map(|j| median(&column(j, |s| s.glitch.1))).collect();
     let mut flags = Vec::new();
     for (k, share) in shares.iter().enumerate() {
-        if let Some(g) = glitches.get(k)
+        if glitch_check
             && let Some(j) = (0..m).find(|&j| {
-                g[j].1 > settings.glitch_sigmas
-                    && g[j].1 > settings.glitch_factor * glitch_medians[j]
+                share[j].glitch.1 > settings.glitch_sigmas
+                    && share[j].glitch.1 > settings.glitch_factor * glitch_medians[j]
             })
         {
-            let (at, z) = g[j];
+            let (at, z) = share[j].glitch;
             flags.push(ConsistencyFlag {
                 record: index[k],
                 file: c.label(k),
@@ -673,7 +669,7 @@ fn residual_flags(
             continue;
         }
         for j in 0..m {
-            let ((r, g), med) = (share[j], medians[j]);
+            let (r, g, med) = (share[j].share, share[j].gain, medians[j]);
             let (g_med, g_sd) = gains[j];
             let off = (g - g_med).abs();
             if g_med > 0.0
@@ -815,13 +811,6 @@ fn check_orders(c: &Campaign, id: &Identifier) -> Result<(), AnalysisError> {
         });
     }
     Ok(())
-}
-
-/// Indices into `r.modes` of the structural modes the model does not use
-/// (torsional, out-of-plane or local modes a shear model lacks, or a mode of
-/// a floor without an accelerometer).
-pub fn out_of_model_modes(r: &Identification) -> Vec<usize> {
-    r.out_of_model_modes()
 }
 
 /// Under `--strict`: the records showing more structural modes than there

@@ -78,3 +78,17 @@ pub fn rel_fro(a: &[Vec<f64>], b: &[Vec<f64>]) -> f64 {
     }
     (num / den).sqrt()
 }
+
+/// `frameid identify --json --no-uncertainty FILES EXTRA...`, asserted to
+/// succeed, parsed.
+pub fn identify_no_uncertainty(files: &[String], extra: &[&str]) -> serde_json::Value {
+    let mut args: Vec<&str> = vec!["identify", "--json", "--no-uncertainty"];
+    args.extend(files.iter().map(String::as_str));
+    args.extend_from_slice(extra);
+    serde_json::from_str(&ok(&args)).unwrap()
+}
+
+/// Paper case 1's mass and stiffness (scenarios/paper-case1.toml), kg and
+/// N/m.
+pub const PAPER_CASE1_MASS: [[f64; 2]; 2] = [[0.2913, 0.0153], [0.0153, 0.3387]];
+pub const PAPER_CASE1_STIFFNESS: [[f64; 2]; 2] = [[630.44, -425.83], [-425.83, 439.01]];
