@@ -57,19 +57,7 @@ struct ChannelMeta {
     node: Option<i64>,
     direction: Option<i32>,
     id_line: Option<String>,
-    lines: Option<LinesMeta>,
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-enum LinesMeta {
-    Rows {
-        first_line: usize,
-    },
-    Values {
-        starts: Vec<(usize, usize)>,
-        stride: usize,
-        offset: usize,
-    },
+    lines: Option<SampleLines>,
 }
 
 impl FileMeta {
@@ -92,20 +80,7 @@ impl FileMeta {
                     node: c.node,
                     direction: c.direction,
                     id_line: c.id_line.clone(),
-                    lines: c.lines.as_ref().map(|l| match l {
-                        SampleLines::Rows { first_line } => LinesMeta::Rows {
-                            first_line: *first_line,
-                        },
-                        SampleLines::Values {
-                            starts,
-                            stride,
-                            offset,
-                        } => LinesMeta::Values {
-                            starts: starts.clone(),
-                            stride: *stride,
-                            offset: *offset,
-                        },
-                    }),
+                    lines: c.lines.clone(),
                 })
                 .collect(),
         }
@@ -132,20 +107,7 @@ impl FileMeta {
                     direction: c.direction,
                     id_line: c.id_line.clone(),
                     values: Vec::new(),
-                    lines: c.lines.as_ref().map(|l| match l {
-                        LinesMeta::Rows { first_line } => SampleLines::Rows {
-                            first_line: *first_line,
-                        },
-                        LinesMeta::Values {
-                            starts,
-                            stride,
-                            offset,
-                        } => SampleLines::Values {
-                            starts: starts.clone(),
-                            stride: *stride,
-                            offset: *offset,
-                        },
-                    }),
+                    lines: c.lines.clone(),
                 })
                 .collect(),
         }

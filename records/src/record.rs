@@ -30,7 +30,7 @@ pub struct Channel {
 
 /// The text lines holding a channel's samples, so that a check can name the
 /// line of a suspicious sample.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum SampleLines {
     /// One sample per line: sample `i` is on line `first_line + i` (CSV).
     Rows {
