@@ -159,6 +159,9 @@ pub struct IdentifyArgs {
     /// Refine M, K and the damping matrix by maximum likelihood over all hits (records only), with standard errors
     #[arg(long, conflicts_with = "realization")]
     pub refine: bool,
+    /// Also write an HTML page of the identification: data and preprocessing, warnings, hit quality, stabilization diagram, modes in and out of the model, identified values with error bars, measured FRFs and coherence against the identified model
+    #[arg(long, conflicts_with = "realization", value_name = "FILE")]
+    pub report: Option<PathBuf>,
     /// Parameters of the refinement: symmetric M, K, damping (`full`) or one mass per floor and one spring and dashpot per storey plus ground dashpots (`shear-frame`)
     #[arg(long, default_value_t = ParametrizationSetting::Full, value_parser = parametrization_parser(), requires = "refine")]
     pub parametrization: ParametrizationSetting,

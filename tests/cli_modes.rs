@@ -131,3 +131,65 @@ fn the_user_chooses_with_modes_or_band_and_strict_refuses() {
     assert!(out.is_empty());
     assert!(err.contains("the records show 3 structural modes"), "{err}");
 }
+
+/// `--report`: the page of a campaign without truth shows the extra mode as
+/// out of the model (in the table and on the stabilization diagram), the
+/// identified values as the JSON gives them, and per floor the measured FRF
+/// with its coherence against the identified model.
+#[test]
+fn the_campaign_report_shows_the_out_of_model_mode_and_the_measured_frfs() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = campaign(dir.path(), 6.1);
+    let page = dir.path().join("identification.html");
+    let mut args: Vec<&str> = vec!["identify", "--json", "--no-uncertainty"];
+    args.extend(files.iter().map(String::as_str));
+    args.extend(["--report", s(&page)]);
+    let v: Value = serde_json::from_str(&ok(&args)).unwrap();
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(html.starts_with("<!DOCTYPE html>"));
+    assert!(!html.contains("<script"), "self-contained, no script");
+    for hook in [
+        "section class=\"source\"",
+        "section class=\"modes\"",
+        "section class=\"values\"",
+        "section class=\"frf\"",
+        "data-chart=\"stabilization\"",
+    ] {
+        assert!(html.contains(hook), "{hook}");
+    }
+    // One mode row out of the model, two in it.
+    assert_eq!(html.matches("data-in-model=\"false\"").count(), 1);
+    assert_eq!(html.matches("data-in-model=\"true\"").count(), 2);
+    let extra = &html[html.find("data-in-model=\"false\"").unwrap()..];
+    let f: f64 = extra
+        .split("<td class=\"num\">")
+        .nth(1)
+        .and_then(|t| t.split('<').next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    let json_f = v["out_of_model_modes"][0]["frequency_hz"].as_f64().unwrap();
+    // The table shows five significant digits of the same number.
+    assert!((f - json_f).abs() < 1e-4 * json_f, "{f} against {json_f}");
+    // The extra mode is marked on the stabilization diagram.
+    assert!(html.contains("data-series=\"extra-1\""));
+    // Magnitude, phase and coherence of both floors' FRFs to the force.
+    for j in 1..=2 {
+        for chart in ["magnitude", "phase", "coherence"] {
+            let id = format!("<figure class=\"chart\" id=\"campaign-frf-{j}-{chart}\"");
+            assert_eq!(html.matches(&id).count(), 1, "{id}");
+        }
+    }
+    // The identified mass matrix as the JSON gives it (full precision in
+    // data-value).
+    let m = matrix(&v["mass"]);
+    let table = &html[html.find("data-table=\"mass-matrix-m\"").unwrap()..];
+    let value = |label: &str| -> f64 {
+        let row = &table[table.find(&format!(">{label}<")).unwrap()..];
+        let at = row.find("data-value=\"").unwrap() + "data-value=\"".len();
+        row[at..row[at..].find('"').unwrap() + at].parse().unwrap()
+    };
+    assert_eq!(value("M11"), m[0][0]);
+    assert_eq!(value("M12"), m[0][1]);
+    assert_eq!(value("M22"), m[1][1]);
+}

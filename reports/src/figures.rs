@@ -3,7 +3,9 @@
 use crate::chart::palette::{BLUE, DARK, GREEN, GREY, ORANGE, PURPLE, VERMILLION};
 use crate::chart::{Axis, Chart, Layer, Shape, finite_range};
 use crate::format::{escape, noise_percent, sig, trim};
-use crate::model::{Frf, ModeShape, Panel, Quantity, Representative, Scale, Stability};
+use crate::model::{
+    Frf, ModeShape, Panel, Quantity, Representative, Scale, Stability, StabilizationPoint,
+};
 
 /// A chart with its caption (HTML) and extra attributes for its `<figure>`.
 pub struct Fig {
@@ -276,18 +278,30 @@ const STATUS_STYLE: [StatusStyle; 4] = [
 /// Stabilization diagram: model order against frequency, one marker per
 /// pole by stability status, identified modes and chosen order marked.
 pub fn stabilization(prefix: &str, rep: &Representative) -> Fig {
-    let pts = &rep.stabilization;
+    stabilization_of(prefix, &rep.stabilization, &rep.modes, &[], rep.order)
+}
+
+/// Stabilization diagram of `pts` with the model's `modes` (numbered rules),
+/// the modes left out of the model (`extra`, grey rules) and the chosen
+/// `order` marked.
+pub fn stabilization_of(
+    prefix: &str,
+    pts: &[StabilizationPoint],
+    modes: &[ModeShape],
+    extra: &[ModeShape],
+    order: usize,
+) -> Fig {
     let (_, fmax) = finite_range(
         pts.iter()
             .map(|p| &p.frequency_hz)
-            .chain(rep.modes.iter().map(|m| &m.frequency_hz)),
+            .chain(modes.iter().chain(extra).map(|m| &m.frequency_hz)),
     );
     let fmax = if fmax.is_finite() && fmax > 0.0 {
         fmax * 1.05
     } else {
         1.0
     };
-    let orders = pts.iter().map(|p| p.order as f64).chain([rep.order as f64]);
+    let orders = pts.iter().map(|p| p.order as f64).chain([order as f64]);
     let (omin, omax) = orders.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), o| {
         (a.min(o), b.max(o))
     });
@@ -309,7 +323,7 @@ pub fn stabilization(prefix: &str, rep: &Representative) -> Fig {
             ));
         }
     }
-    for (k, m) in rep.modes.iter().enumerate() {
+    for (k, m) in modes.iter().enumerate() {
         layers.push(Layer::vrule(
             &format!("mode-{}", k + 1),
             PURPLE,
@@ -317,15 +331,28 @@ pub fn stabilization(prefix: &str, rep: &Representative) -> Fig {
             Some(format!("{}", k + 1)),
         ));
     }
+    for (k, m) in extra.iter().enumerate() {
+        layers.push(Layer::vrule(
+            &format!("extra-{}", k + 1),
+            GREY,
+            m.frequency_hz,
+            Some(format!("x{}", k + 1)),
+        ));
+    }
     layers.push(Layer::hrule(
         "order",
         VERMILLION,
-        rep.order as f64,
-        Some(format!("chosen n = {}", rep.order)),
+        order as f64,
+        Some(format!("chosen n = {order}")),
     ));
     let caption = format!(
-        "{} poles. A pole is stable in f, ξ or shape when it matches a pole of the next lower order within frameid's tolerances. Dashed vertical lines: identified modes (numbered); dashed horizontal line: the chosen order.",
-        pts.len()
+        "{} poles. A pole is stable in f, ξ or shape when it matches a pole of the next lower order within frameid's tolerances. Dashed vertical lines: identified modes (numbered){}; dashed horizontal line: the chosen order.",
+        pts.len(),
+        if extra.is_empty() {
+            ""
+        } else {
+            ", grey x1, x2…: modes left out of the model"
+        }
     );
     Fig::new(
         Chart {
@@ -344,7 +371,12 @@ pub fn stabilization(prefix: &str, rep: &Representative) -> Fig {
 /// Magnitude and phase of each mode shape (the paper's Fig. 5), identified
 /// against truth when given.
 pub fn modes(prefix: &str, rep: &Representative) -> Vec<(Fig, Fig)> {
-    rep.modes
+    modes_of(prefix, &rep.modes)
+}
+
+/// Magnitude and phase of each of `modes`, numbered from 1.
+pub fn modes_of(prefix: &str, modes: &[ModeShape]) -> Vec<(Fig, Fig)> {
+    modes
         .iter()
         .enumerate()
         .map(|(k, m)| mode(prefix, k + 1, m))
@@ -456,6 +488,51 @@ pub fn frf(prefix: &str, hit_floor: usize, frfs: &[Frf]) -> Vec<(Fig, Fig)> {
         .collect()
 }
 
+/// Ordinary coherence of the `j`-th FRF (1-based), when it is known.
+pub fn coherence(prefix: &str, j: usize, f: &Frf) -> Option<Fig> {
+    let gamma = f.coherence.as_ref()?;
+    let (fmin, fmax) = finite_range(&f.frequency_hz);
+    let points: Vec<(f64, f64)> = f
+        .frequency_hz
+        .iter()
+        .zip(gamma)
+        .map(|(&fr, &g)| (fr, g))
+        .collect();
+    let name = frf_name(j, f);
+    let chart = Chart {
+        id: format!("{prefix}-frf-{j}-coherence"),
+        kind: "frf-coherence".into(),
+        title: format!("Coherence {name}"),
+        size: HALF,
+        x: Axis::linear_exact("Frequency [Hz]", fmin, fmax),
+        y: Axis::fixed("γ² [-]", 0.0, 1.05, &[0.0, 0.25, 0.5, 0.75, 1.0]),
+        layers: vec![Layer::line("coherence", None, GREEN, points)],
+    };
+    let mut fig = Fig::new(
+        chart,
+        format!(
+            "Ordinary coherence of {}: 1 where the response is linear in the reference and free of noise; dips at anti-resonances and where noise or unmeasured inputs dominate.",
+            escape(&name)
+        ),
+    );
+    fig.attrs = format!(" data-output=\"{j}\"");
+    Some(fig)
+}
+
+/// The name of an FRF in titles: "output / reference" when the reference is
+/// named.
+fn frf_name(j: usize, f: &Frf) -> String {
+    let out = if f.output.is_empty() {
+        format!("output {j}")
+    } else {
+        f.output.clone()
+    };
+    match &f.reference {
+        Some(r) => format!("{out} / {r}"),
+        None => out,
+    }
+}
+
 fn frf_pair(prefix: &str, j: usize, hit_floor: usize, f: &Frf) -> (Fig, Fig) {
     let (fmin, fmax) = finite_range(&f.frequency_hz);
     let x = Axis::linear_exact("Frequency [Hz]", fmin, fmax);
@@ -508,15 +585,24 @@ fn frf_pair(prefix: &str, j: usize, hit_floor: usize, f: &Frf) -> (Fig, Fig) {
         }
         v
     };
-    let name = if f.output.is_empty() {
-        format!("output {j}")
-    } else {
-        f.output.clone()
+    let name = frf_name(j, f);
+    let title = match &f.reference {
+        Some(_) => format!("FRF {name}"),
+        None => format!("FRF {name} / force at floor {hit_floor}"),
     };
-    let title = format!("FRF {name} / force at floor {hit_floor}");
     let caption = format!(
-        "Accelerance of {} to the hammer force: the estimate from the records against the identified model{}.",
+        "Accelerance of {} to the {}: the {} against the identified model{}.",
         escape(&name),
+        if f.reference.is_some() {
+            "reference force"
+        } else {
+            "hammer force"
+        },
+        if f.reference.is_some() {
+            "measured FRF"
+        } else {
+            "estimate from the records"
+        },
         if truth.is_empty() {
             ""
         } else {

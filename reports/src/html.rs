@@ -23,7 +23,7 @@ macro_rules! w {
 /// `comparison_tables_take_the_width_their_columns_need`). A table wider
 /// than the page column shrinks to it and scrolls; on narrow screens the
 /// cells get less padding and the headers may wrap.
-const CSS: &str = r#"
+pub(crate) const CSS: &str = r#"
 :root { --fg: #1b1b1b; --muted: #555; --rule: #cfcfcf; --accent: #0072b2; --warn: #d55e00; }
 * { box-sizing: border-box; }
 html { background: #fff; }
@@ -188,7 +188,7 @@ fn setup(out: &mut String, sid: &str, study: &Study, report: &Report) {
 }
 
 /// Draws a figure into the page.
-fn figure(out: &mut String, fig: &Fig, class: &str) -> Result<(), ReportError> {
+pub(crate) fn figure(out: &mut String, fig: &Fig, class: &str) -> Result<(), ReportError> {
     let drawn = chart::draw(&fig.chart)?;
     w!(
         out,
@@ -212,7 +212,7 @@ fn figure(out: &mut String, fig: &Fig, class: &str) -> Result<(), ReportError> {
     Ok(())
 }
 
-fn row_open(out: &mut String, cols: usize, class: &str) {
+pub(crate) fn row_open(out: &mut String, cols: usize, class: &str) {
     w!(
         out,
         "<div class=\"figure-row{}{}\" style=\"--cols: {}\">\n",
@@ -301,7 +301,7 @@ fn representative(
 
 /// The per-hit quality table: peak force, pulse duration, worst SNR, tail
 /// ratio and the failed checks.
-fn hit_quality(out: &mut String, rows: &[crate::model::HitQualityRow]) {
+pub(crate) fn hit_quality(out: &mut String, rows: &[crate::model::HitQualityRow]) {
     if rows.is_empty() {
         return;
     }

@@ -107,6 +107,7 @@
 
 #![deny(missing_docs)]
 
+mod campaign;
 mod chart;
 mod error;
 mod figures;
@@ -120,14 +121,31 @@ use std::path::Path;
 
 pub use error::ReportError;
 pub use model::{
-    Accuracy, ComparisonRow, ComparisonTable, EfficiencyRow, FailureCount, Frf, ModeShape, Panel,
-    Quantity, Report, Representative, Scale, SetupRow, Stability, StabilizationPoint, Study,
+    Accuracy, CampaignReport, ComparisonRow, ComparisonTable, EfficiencyRow, FailureCount, Frf,
+    ModeShape, Panel, Quantity, Report, Representative, Scale, SetupRow, Stability,
+    StabilizationPoint, Study, ValueRow, ValueTable,
 };
 
 /// Renders the report as one self-contained HTML document.
 pub fn render(report: &Report) -> Result<String, ReportError> {
     validate::validate(report)?;
     html::render(report)
+}
+
+/// Renders the page of one campaign identified without a known truth (see
+/// [`CampaignReport`]): same style and guarantees as [`render`].
+pub fn render_campaign(report: &CampaignReport) -> Result<String, ReportError> {
+    campaign::render(report)
+}
+
+/// Renders the campaign page and writes it to `path` atomically, as
+/// [`render_to_file`] does.
+pub fn render_campaign_to_file(
+    report: &CampaignReport,
+    path: impl AsRef<Path>,
+) -> Result<(), ReportError> {
+    let html = render_campaign(report)?;
+    fsio::write_file(path.as_ref(), html.as_bytes()).map_err(ReportError::from)
 }
 
 /// Renders the report and writes it to `path` atomically (see

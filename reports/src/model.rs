@@ -181,6 +181,83 @@ pub struct Frf {
     /// Of the true model, same units, when known.
     #[serde(default, deserialize_with = "nullable::opt_complex_vec")]
     pub truth: Option<Vec<[f64; 2]>>,
+    /// Added field. Name of the reference (force) when it is not the hammer
+    /// of the study, e.g. "force" or "shaker 2"; shown in the chart title.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference: Option<String>,
+    /// Added field. Ordinary coherence of the estimate per line, in [0, 1],
+    /// when known; drawn as a chart of its own.
+    #[serde(
+        default,
+        deserialize_with = "nullable::opt_vec",
+        skip_serializing_if = "Option::is_none"
+    )]
+    pub coherence: Option<Vec<f64>>,
+}
+
+/// A campaign identified without a known truth (rig records or FRFs
+/// exported by an analyzer): what `frameid identify --report` writes.
+///
+/// Rendered by [`crate::render_campaign`] as one self-contained page: the
+/// source and preprocessing, warnings, hit quality, the stabilization
+/// diagram, the modes (those of the model and those out of it), the
+/// identified matrices with their error bars, and the measured FRFs against
+/// the identified model with their coherence.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct CampaignReport {
+    /// Title of the document; "frameid identification" when blank.
+    pub title: String,
+    /// Version of frameid.
+    pub frameid_version: String,
+    /// The command line, shown verbatim.
+    pub command: String,
+    /// Pre-formatted rows on the data and what was done to it: files,
+    /// hits, sampling, detected excitation, decimation, windows, route.
+    pub source: Vec<SetupRow>,
+    /// Every warning of the identification, naming files and channels.
+    pub warnings: Vec<String>,
+    /// Quality of every hit (time records only).
+    #[serde(default)]
+    pub hit_quality: Vec<HitQualityRow>,
+    /// The chosen model order of the stabilization diagram.
+    pub order: usize,
+    /// Poles of the stabilization diagram, every order tried; may be empty.
+    pub stabilization: Vec<StabilizationPoint>,
+    /// The modes that form the M, K, damping model, ascending frequency.
+    pub modes: Vec<ModeShape>,
+    /// Structural modes identified but left out of the model (torsion,
+    /// out-of-plane, local modes).
+    pub out_of_model: Vec<ModeShape>,
+    /// Measured FRFs against the identified model, one per
+    /// response/reference pair.
+    pub frf: Vec<Frf>,
+    /// Identified values with their standard errors: modal parameters and
+    /// matrices.
+    pub tables: Vec<ValueTable>,
+}
+
+/// Identified values without a truth to compare with.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct ValueTable {
+    /// Caption, e.g. "Mass matrix M".
+    pub title: String,
+    /// Unit of the values; may be empty.
+    pub unit: String,
+    /// One row per value.
+    pub rows: Vec<ValueRow>,
+}
+
+/// One identified value.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct ValueRow {
+    /// What the value is, e.g. "M12".
+    pub label: String,
+    /// The value.
+    #[serde(deserialize_with = "nullable::f64")]
+    pub value: f64,
+    /// Its standard error, when known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub std: Option<f64>,
 }
 
 /// Identified values against the truth; the renderer computes relative

@@ -190,5 +190,12 @@ fn identify_records(args: &IdentifyArgs, modes: ident::ModeSelection) -> Result<
         ..AnalysisSettings::default()
     };
     let analysis = analyze_located(&campaign, &ByLine(&files), &settings)?;
+    if let Some(path) = &args.report {
+        let names: Vec<String> = args.files.iter().map(|f| f.display().to_string()).collect();
+        let command = std::env::args().collect::<Vec<_>>().join(" ");
+        let page = study::campaign_report::time_report(&analysis, &settings, &names, &command);
+        reports::render_campaign_to_file(&page, path)
+            .with_context(|| format!("--report {}", path.display()))?;
+    }
     Ok(IdentifyReport::from_analysis(&analysis))
 }

@@ -13,6 +13,8 @@
 //!   shards and merge.
 //! - [`representative`]: one campaign identified and compared with the
 //!   truth, as the report shows it.
+//! - [`campaign_report`]: the page of a campaign without truth (rig
+//!   records), as `frameid identify --report` writes it.
 //! - [`report`]: sweep directories into the `reports` crate's data model.
 //! - [`campaign_dir`] and [`truth`]: a simulated campaign on disk.
 //!
@@ -42,6 +44,7 @@
 
 pub mod analysis;
 pub mod campaign_dir;
+pub mod campaign_report;
 mod error;
 pub mod experiment;
 mod fsutil;

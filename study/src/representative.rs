@@ -3,7 +3,7 @@
 //! 2-3), Hankel singular values (Fig. 4), mode shapes (Fig. 5), a
 //! stabilization diagram, measured against identified FRFs, and tables.
 
-use ident::pipeline::{Stability, StabilizationCriteria};
+use ident::pipeline::StabilizationCriteria;
 use ident::refine::SecondOrder;
 use ident::{Jackknife, jackknife};
 use nalgebra::DMatrix;
@@ -14,6 +14,7 @@ use rustfft::FftPlanner;
 use serde::{Deserialize, Serialize};
 use sim::{Campaign, Model, derive_seed};
 
+use crate::campaign_report::{accelerance, hit_quality_rows, stabilization_point};
 use crate::experiment::{TrueModel, noise_at};
 use crate::scenario::Scenario;
 
@@ -119,40 +120,14 @@ pub fn representative(
             ),
         })
         .collect();
-    let stabilization = stabilization
-        .iter()
-        .map(|p| rm::StabilizationPoint {
-            order: p.order,
-            frequency_hz: p.frequency_hz,
-            damping_ratio: p.damping_ratio,
-            status: match p.status {
-                Stability::New => rm::Stability::New,
-                Stability::Frequency => rm::Stability::Frequency,
-                Stability::Damping => rm::Stability::Damping,
-                Stability::Stable => rm::Stability::Stable,
-            },
-        })
-        .collect();
+    let stabilization = stabilization.iter().map(stabilization_point).collect();
     let identified = Model {
         mass: id.mass.clone(),
         stiffness: id.stiffness.clone(),
         damping: id.damping_rayleigh.clone(),
     };
     let frf = frfs(&campaign, &identified, &truth.model, input);
-    let hit_quality = assess_campaign(&data, &QualitySettings::default())
-        .into_iter()
-        .map(|q| rm::HitQualityRow {
-            hit: q.hit,
-            peak_force_n: q.channels.first().map_or(f64::NAN, |c| c.peak),
-            pulse_duration_s: q
-                .pulse
-                .as_ref()
-                .map_or(f64::NAN, |p| p.equivalent_duration_s),
-            min_snr_db: q.min_snr_db().unwrap_or(f64::NAN),
-            tail_ratio: q.max_tail_ratio().unwrap_or(f64::NAN),
-            flags: q.flags.iter().map(|f| f.message.clone()).collect(),
-        })
-        .collect();
+    let hit_quality = hit_quality_rows(&assess_campaign(&data, &QualitySettings::default()));
     // Error bars from the hits themselves (leave-one-out); a campaign too
     // small or too noisy for them still gets its tables.
     let spread = jackknife(&identifier, &data, &id).ok();
@@ -193,19 +168,7 @@ pub fn representative(
 /// Acceleration FRF of a model at `omega` (rad/s) for a force at `input`:
 /// `-omega^2 (K - omega^2 M + i omega R)^-1 e_input`.
 pub fn model_frf(model: &Model, input: usize, omega: f64) -> Vec<Complex64> {
-    let n = model.dofs();
-    let q = DMatrix::from_fn(n, n, |i, j| {
-        Complex64::new(
-            model.stiffness[(i, j)] - omega * omega * model.mass[(i, j)],
-            omega * model.damping[(i, j)],
-        )
-    });
-    let mut e = DMatrix::zeros(n, 1);
-    e[(input, 0)] = Complex64::new(1.0, 0.0);
-    match q.lu().solve(&e) {
-        Some(x) => x.iter().map(|v| v * (-omega * omega)).collect(),
-        None => vec![Complex64::new(f64::NAN, f64::NAN); n],
-    }
+    accelerance(&model.mass, &model.stiffness, &model.damping, input, omega)
 }
 
 /// H1 estimates from all hits (sum Y U* / sum |U|^2) against the
@@ -252,6 +215,8 @@ fn frfs(c: &Campaign, identified: &Model, truth: &Model, input: usize) -> Vec<rm
             measured: (0..bins.len()).map(|b| pair(num[i][b] / den[b])).collect(),
             identified: hid.iter().map(|h| pair(h[i])).collect(),
             truth: Some(htrue.iter().map(|h| pair(h[i])).collect()),
+            reference: None,
+            coherence: None,
         })
         .collect()
 }

@@ -1,0 +1,489 @@
+//! The page of a campaign without a known truth ([`reports::CampaignReport`]):
+//! what `frameid identify --report` shows of an [`Analysis`] of rig records.
+//!
+//! Measured FRFs are H1 estimates with their ordinary coherence from the
+//! hits identified ([`ident::frf::estimate`]: averaged across hits for
+//! hammer records, Welch segments for continuous ones); the model's FRFs are
+//! those of the identified M, K and damping (the refined ones when the
+//! campaign was refined, otherwise MKR's M and K with Rayleigh damping) for
+//! a force at the collocated output's floor.
+
+use ident::frf::estimate::FrfParams;
+use ident::pipeline::{Stability, StabilizationCriteria};
+use nalgebra::DMatrix;
+use num_complex::Complex64;
+use records::quality::{Excitation, HitQuality};
+use reports::model as rm;
+
+use crate::analysis::{Analysis, AnalysisSettings};
+
+/// Largest model order of the stabilization diagram.
+const STABILIZATION_MAX_ORDER: usize = 24;
+
+/// Shortest Welch segment for continuous records, samples.
+const MIN_WELCH_SEGMENT: usize = 256;
+
+/// Welch segments wanted over a continuous record (with 50 % overlap, about
+/// twice as many averages): enough for a coherence estimate whose bias
+/// `(1 - gamma^2) / n` stays a few percent.
+const WELCH_SEGMENTS: usize = 16;
+
+/// Accelerance of `(mass, stiffness, damping)` at `omega` (rad/s) for a unit
+/// force at DOF `input`: `-omega^2 (K - omega^2 M + i omega damping)^-1 e_input`,
+/// one value per DOF (NaN where the dynamic stiffness is singular).
+pub fn accelerance(
+    mass: &DMatrix<f64>,
+    stiffness: &DMatrix<f64>,
+    damping: &DMatrix<f64>,
+    input: usize,
+    omega: f64,
+) -> Vec<Complex64> {
+    let n = mass.nrows();
+    let q = DMatrix::from_fn(n, n, |i, j| {
+        Complex64::new(
+            stiffness[(i, j)] - omega * omega * mass[(i, j)],
+            omega * damping[(i, j)],
+        )
+    });
+    let mut e = DMatrix::zeros(n, 1);
+    e[(input, 0)] = Complex64::new(1.0, 0.0);
+    match q.lu().solve(&e) {
+        Some(x) => x.iter().map(|v| v * (-omega * omega)).collect(),
+        None => vec![Complex64::new(f64::NAN, f64::NAN); n],
+    }
+}
+
+/// The report's rows of the hit quality checks.
+pub fn hit_quality_rows(hits: &[HitQuality]) -> Vec<rm::HitQualityRow> {
+    hits.iter()
+        .map(|q| rm::HitQualityRow {
+            hit: q.hit,
+            peak_force_n: q.channels.first().map_or(f64::NAN, |c| c.peak),
+            pulse_duration_s: q
+                .pulse
+                .as_ref()
+                .map_or(f64::NAN, |p| p.equivalent_duration_s),
+            min_snr_db: q.min_snr_db().unwrap_or(f64::NAN),
+            tail_ratio: q.max_tail_ratio().unwrap_or(f64::NAN),
+            flags: q.flags.iter().map(|f| f.message.clone()).collect(),
+        })
+        .collect()
+}
+
+/// A stabilization point of the identifier in the report's terms.
+pub fn stabilization_point(p: &ident::pipeline::StabilizationPoint) -> rm::StabilizationPoint {
+    rm::StabilizationPoint {
+        order: p.order,
+        frequency_hz: p.frequency_hz,
+        damping_ratio: p.damping_ratio,
+        status: match p.status {
+            Stability::New => rm::Stability::New,
+            Stability::Frequency => rm::Stability::Frequency,
+            Stability::Damping => rm::Stability::Damping,
+            Stability::Stable => rm::Stability::Stable,
+        },
+    }
+}
+
+/// A mode in the report's terms: shape scaled so that its largest
+/// component is 1 + 0i.
+pub fn mode_shape(frequency_hz: f64, damping_ratio: f64, shape: &[Complex64]) -> rm::ModeShape {
+    let big = shape
+        .iter()
+        .copied()
+        .max_by(|a, b| a.norm().total_cmp(&b.norm()))
+        .unwrap_or(Complex64::new(1.0, 0.0));
+    let scale = if big.norm() > 0.0 {
+        big
+    } else {
+        Complex64::new(1.0, 0.0)
+    };
+    rm::ModeShape {
+        frequency_hz,
+        damping_ratio,
+        shape: shape
+            .iter()
+            .map(|z| {
+                let v = z / scale;
+                [v.re, v.im]
+            })
+            .collect(),
+        truth: None,
+    }
+}
+
+/// Rows `{prefix}ij` (i <= j) of a symmetric matrix with standard errors.
+pub fn matrix_rows(
+    prefix: &str,
+    value: &DMatrix<f64>,
+    std: impl Fn(usize, usize) -> Option<f64>,
+) -> Vec<rm::ValueRow> {
+    let n = value.nrows();
+    let mut rows = Vec::new();
+    for i in 0..n {
+        for j in i..n {
+            rows.push(rm::ValueRow {
+                label: format!("{prefix}{}{}", i + 1, j + 1),
+                value: value[(i, j)],
+                std: std(i, j),
+            });
+        }
+    }
+    rows
+}
+
+fn row(label: &str, value: impl Into<String>) -> rm::SetupRow {
+    rm::SetupRow {
+        label: label.into(),
+        value: value.into(),
+    }
+}
+
+fn table(title: &str, unit: &str, rows: Vec<rm::ValueRow>) -> rm::ValueTable {
+    rm::ValueTable {
+        title: title.into(),
+        unit: unit.into(),
+        rows,
+    }
+}
+
+/// The page of an analysis of rig records. `files` are the record files
+/// given (in order), `command` the command line.
+pub fn time_report(
+    analysis: &Analysis,
+    settings: &AnalysisSettings,
+    files: &[String],
+    command: &str,
+) -> rm::CampaignReport {
+    let id = &analysis.identification;
+    let c = &analysis.campaign;
+    let mut warnings = analysis.warnings.clone();
+    let samples = c.records.first().map_or(0, |r| r.outputs.ncols());
+    let continuous = analysis
+        .hit_quality
+        .iter()
+        .any(|q| q.excitation == Excitation::Continuous);
+    let excitation = {
+        let hammer = analysis
+            .hit_quality
+            .iter()
+            .filter(|q| q.excitation == Excitation::Hammer)
+            .count();
+        let shaker = analysis.hit_quality.len() - hammer;
+        format!(
+            "{} ({}; asked: {})",
+            if continuous { "continuous" } else { "hammer" },
+            match (hammer, shaker) {
+                (h, 0) => format!("{h} hammer record(s)"),
+                (0, s) => format!("{s} continuous record(s)"),
+                (h, s) => format!("{h} hammer and {s} continuous record(s)"),
+            },
+            format!("{:?}", settings.quality.excitation).to_lowercase()
+        )
+    };
+    let mut source = vec![
+        row("Files", files.join(", ")),
+        row(
+            "Records identified",
+            format!(
+                "{} of {} given{}",
+                c.records.len(),
+                analysis.hit_quality.len(),
+                if analysis.dropped.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        " (dropped: {})",
+                        analysis
+                            .dropped
+                            .iter()
+                            .map(|&k| files.get(k).cloned().unwrap_or_else(|| format!("#{k}")))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                }
+            ),
+        ),
+        row(
+            "Sampling",
+            format!(
+                "{} Hz ({} s), {samples} samples per record",
+                reports_sig(1.0 / c.dt_s),
+                reports_sig(c.dt_s)
+            ),
+        ),
+        row("Inputs", c.inputs.join(", ")),
+        row("Outputs (DOF order)", c.outputs.join(", ")),
+        row(
+            "Collocated pair",
+            format!(
+                "{} / {}",
+                c.outputs
+                    .get(analysis.collocated.output)
+                    .map_or("?", String::as_str),
+                c.inputs
+                    .get(analysis.collocated.input)
+                    .map_or("?", String::as_str)
+            ),
+        ),
+        row("Excitation", excitation),
+        row(
+            "Method",
+            format!(
+                "OKID → ERA/DC (state order {}), {:?} intersample, MKR + Rayleigh{}",
+                id.model_order,
+                id.intersample,
+                if analysis.refinement.is_some() {
+                    ", maximum-likelihood refinement"
+                } else {
+                    ""
+                }
+            ),
+        ),
+        row("Mode selection", format!("{:?}", id.mode_selection)),
+        row(
+            "Error bars",
+            match (&analysis.uncertainty, &analysis.uncertainty_skipped) {
+                (Some(j), _) => format!("{} over {} resamples", j.method, j.resamples),
+                (None, Some(why)) => format!("none: {why}"),
+                (None, None) => "not asked for".into(),
+            },
+        ),
+    ];
+
+    let stabilization = match settings.identifier.check().and_then(|v| {
+        v.stabilization(
+            &c.records,
+            c.dt_s,
+            STABILIZATION_MAX_ORDER,
+            StabilizationCriteria::default(),
+        )
+    }) {
+        Ok(points) => points.iter().map(stabilization_point).collect(),
+        Err(e) => {
+            warnings.push(format!("stabilization diagram not drawn: {e}"));
+            Vec::new()
+        }
+    };
+    let shape_of = |m: &ident::modal::Mode| -> Vec<Complex64> { m.shape.iter().copied().collect() };
+    let modes = id
+        .mkr_modes
+        .iter()
+        .map(|&j| {
+            let m = &id.modes[j];
+            mode_shape(m.frequency_hz, m.damping_ratio, &shape_of(m))
+        })
+        .collect();
+    let out_of_model = id
+        .out_of_model_modes()
+        .iter()
+        .map(|&j| {
+            let m = &id.modes[j];
+            mode_shape(m.frequency_hz, m.damping_ratio, &shape_of(m))
+        })
+        .collect();
+
+    // The model drawn against the measured FRFs.
+    let (mass, stiffness, damping, drawn) = match &analysis.refinement {
+        Some(r) => (
+            &r.mass,
+            &r.stiffness,
+            &r.damping,
+            "refined M, K and damping",
+        ),
+        None => (
+            &id.mass,
+            &id.stiffness,
+            &id.damping_rayleigh,
+            "MKR's M and K with Rayleigh damping",
+        ),
+    };
+    let params = if continuous {
+        let segment = (samples / WELCH_SEGMENTS)
+            .max(MIN_WELCH_SEGMENT)
+            .min(samples);
+        FrfParams::welch(segment)
+    } else {
+        FrfParams::hits()
+    };
+    let frf = match params.estimate(&c.records, c.dt_s) {
+        Ok(est) => {
+            source.push(row(
+                "Measured FRFs",
+                format!(
+                    "{} with ordinary coherence, {} average(s) ({}); model drawn: {drawn}",
+                    est.estimator,
+                    est.frf.averages.unwrap_or(0),
+                    if continuous {
+                        "Welch segments, Hann window, 50 % overlap"
+                    } else {
+                        "one block per hit, no window"
+                    }
+                ),
+            ));
+            measured_against_model(&est.frf, c, analysis.collocated, (mass, stiffness, damping))
+        }
+        Err(e) => {
+            warnings.push(format!("measured FRFs not estimated: {e}"));
+            Vec::new()
+        }
+    };
+
+    let spread = analysis.uncertainty.as_ref();
+    let mut tables = vec![
+        table(
+            "Natural frequencies",
+            "Hz",
+            (0..id.frequencies_hz.len())
+                .map(|j| rm::ValueRow {
+                    label: format!("f{}", j + 1),
+                    value: id.frequencies_hz[j],
+                    std: spread.and_then(|s| s.frequencies_hz.std.get(j).copied()),
+                })
+                .collect(),
+        ),
+        table(
+            "Damping ratios",
+            "%",
+            (0..id.damping_ratios.len())
+                .map(|j| rm::ValueRow {
+                    label: format!("xi{}", j + 1),
+                    value: 100.0 * id.damping_ratios[j],
+                    std: spread.and_then(|s| s.damping_ratios.std.get(j).map(|v| 100.0 * v)),
+                })
+                .collect(),
+        ),
+        table(
+            "Mass matrix M",
+            "kg",
+            matrix_rows("M", &id.mass, |i, j| spread.map(|s| s.mass.std[i][j])),
+        ),
+        table(
+            "Stiffness matrix K",
+            "N/m",
+            matrix_rows("K", &id.stiffness, |i, j| {
+                spread.map(|s| s.stiffness.std[i][j])
+            }),
+        ),
+        table(
+            "Damping matrix, MKR",
+            "N s/m",
+            matrix_rows("R", &id.damping_mkr, |i, j| {
+                spread.map(|s| s.damping_mkr.std[i][j])
+            }),
+        ),
+        table(
+            "Damping matrix, Rayleigh",
+            "N s/m",
+            matrix_rows("R", &id.damping_rayleigh, |i, j| {
+                spread.map(|s| s.damping_rayleigh.std[i][j])
+            }),
+        ),
+    ];
+    if let Some(r) = &analysis.refinement {
+        let u = &r.uncertainty;
+        tables.push(table(
+            "Mass matrix M, refined (ML)",
+            "kg",
+            matrix_rows("M", &r.mass, |i, j| Some(u.mass_std[(i, j)])),
+        ));
+        tables.push(table(
+            "Stiffness matrix K, refined (ML)",
+            "N/m",
+            matrix_rows("K", &r.stiffness, |i, j| Some(u.stiffness_std[(i, j)])),
+        ));
+        tables.push(table(
+            "Damping matrix, refined (ML)",
+            "N s/m",
+            matrix_rows("R", &r.damping, |i, j| Some(u.damping_std[(i, j)])),
+        ));
+    }
+    rm::CampaignReport {
+        title: "frameid identification".into(),
+        frameid_version: env!("CARGO_PKG_VERSION").into(),
+        command: command.into(),
+        source,
+        warnings,
+        hit_quality: hit_quality_rows(&analysis.hit_quality),
+        order: id.model_order,
+        stabilization,
+        modes,
+        out_of_model,
+        frf,
+        tables,
+    }
+}
+
+/// One report FRF per response/reference pair of `measured` (lines above
+/// 0 Hz), against the model's accelerance where the reference's floor is
+/// known (the collocated reference); coherence kept.
+fn measured_against_model(
+    measured: &ident::frf::Frf,
+    c: &ident::Campaign,
+    collocated: ident::CollocatedPair,
+    (mass, stiffness, damping): (&DMatrix<f64>, &DMatrix<f64>, &DMatrix<f64>),
+) -> Vec<rm::Frf> {
+    let lines: Vec<usize> = (0..measured.frequency_hz.len())
+        .filter(|&k| measured.frequency_hz[k] > 0.0)
+        .collect();
+    let frequency_hz: Vec<f64> = lines.iter().map(|&k| measured.frequency_hz[k]).collect();
+    let model: Vec<Vec<Complex64>> = frequency_hz
+        .iter()
+        .map(|f| {
+            accelerance(
+                mass,
+                stiffness,
+                damping,
+                collocated.output,
+                2.0 * std::f64::consts::PI * f,
+            )
+        })
+        .collect();
+    let mut out = Vec::new();
+    for l in 0..measured.references.len() {
+        for i in 0..measured.outputs.len() {
+            let identified = if l == collocated.input && i < mass.nrows() {
+                model.iter().map(|h| [h[i].re, h[i].im]).collect()
+            } else {
+                Vec::new()
+            };
+            out.push(rm::Frf {
+                output: c
+                    .outputs
+                    .get(i)
+                    .cloned()
+                    .unwrap_or_else(|| format!("output {}", i + 1)),
+                frequency_hz: frequency_hz.clone(),
+                measured: lines
+                    .iter()
+                    .map(|&k| {
+                        let z = measured.values[k][(i, l)];
+                        [z.re, z.im]
+                    })
+                    .collect(),
+                identified,
+                truth: None,
+                reference: Some(
+                    c.inputs
+                        .get(l)
+                        .cloned()
+                        .unwrap_or_else(|| format!("input {}", l + 1)),
+                ),
+                coherence: measured
+                    .coherence
+                    .as_ref()
+                    .map(|g| lines.iter().map(|&k| g[k][(i, l)]).collect()),
+            });
+        }
+    }
+    out
+}
+
+/// A number with at most six decimals, trailing zeros dropped.
+fn reports_sig(v: f64) -> String {
+    if !v.is_finite() {
+        return "—".into();
+    }
+    let s = format!("{v:.6}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
