@@ -230,6 +230,66 @@ pub enum AnalysisError {
     },
 }
 
+/// The checks of the records alone, before any identification: every hit's
+/// quality and every hit against the others (dead, copied or spiked
+/// channels, duplicates, level and spectrum). Hits are dropped or the
+/// campaign refused as `settings.screening` says.
+#[derive(Debug, Clone)]
+pub struct Screened {
+    /// Quality of every hit given, in the order given.
+    pub hit_quality: Vec<HitQuality>,
+    /// Every hit checked against the others.
+    pub consistency: Consistency,
+    /// Positions of the hits kept.
+    pub keep: Vec<usize>,
+}
+
+/// Runs the checks of the records alone (see [`Screened`]); the model-based
+/// checks of [`analyze_located`] come after it.
+pub fn screen_records(
+    campaign: &Campaign,
+    locate: &dyn Locate,
+    settings: &AnalysisSettings,
+) -> Result<Screened, AnalysisError> {
+    settings
+        .consistency
+        .check()
+        .map_err(|message| AnalysisError::Settings { message })?;
+    let hit_quality = assess_campaign(campaign, &settings.quality);
+    let consistency = check_consistency(campaign, locate, &settings.consistency);
+    let inconsistent = consistency.flagged_records();
+    let flag_lines = |flags: &[ConsistencyFlag]| -> Vec<String> {
+        flags.iter().map(|f| format!("  {f}")).collect()
+    };
+    if settings.screening == Screening::Strict && !inconsistent.is_empty() {
+        return Err(AnalysisError::StrictInconsistent {
+            failing: inconsistent.len(),
+            hits: campaign.len(),
+            lines: flag_lines(&consistency.flags),
+        });
+    }
+    // The quality screening sees the consistent hits only.
+    let consistent: Vec<usize> = (0..campaign.len())
+        .filter(|i| !inconsistent.contains(i))
+        .collect();
+    if consistent.is_empty() {
+        return Err(AnalysisError::NoneConsistent {
+            hits: campaign.len(),
+            lines: flag_lines(&consistency.flags),
+        });
+    }
+    let quality_of: Vec<HitQuality> = consistent.iter().map(|&i| hit_quality[i].clone()).collect();
+    let keep: Vec<usize> = screen_hits(&quality_of, settings.screening)?
+        .into_iter()
+        .map(|i| consistent[i])
+        .collect();
+    Ok(Screened {
+        hit_quality,
+        consistency,
+        keep,
+    })
+}
+
 /// Checks every hit, screens them, identifies the hits kept jointly, and
 /// adds error bars and the refinement as `settings` ask. Samples are named
 /// by position in messages; [`analyze_located`] names their file lines.
@@ -254,38 +314,14 @@ pub fn analyze_located(
     locate: &dyn Locate,
     settings: &AnalysisSettings,
 ) -> Result<Analysis, AnalysisError> {
-    settings
-        .consistency
-        .check()
-        .map_err(|message| AnalysisError::Settings { message })?;
-    let hit_quality = assess_campaign(campaign, &settings.quality);
-    let mut consistency = check_consistency(campaign, locate, &settings.consistency);
-    let inconsistent = consistency.flagged_records();
+    let Screened {
+        hit_quality,
+        mut consistency,
+        mut keep,
+    } = screen_records(campaign, locate, settings)?;
     let flag_lines = |flags: &[ConsistencyFlag]| -> Vec<String> {
         flags.iter().map(|f| format!("  {f}")).collect()
     };
-    if settings.screening == Screening::Strict && !inconsistent.is_empty() {
-        return Err(AnalysisError::StrictInconsistent {
-            failing: inconsistent.len(),
-            hits: campaign.len(),
-            lines: flag_lines(&consistency.flags),
-        });
-    }
-    // The quality screening sees the consistent hits only.
-    let consistent: Vec<usize> = (0..campaign.len())
-        .filter(|i| !inconsistent.contains(i))
-        .collect();
-    if consistent.is_empty() {
-        return Err(AnalysisError::NoneConsistent {
-            hits: campaign.len(),
-            lines: flag_lines(&consistency.flags),
-        });
-    }
-    let quality_of: Vec<HitQuality> = consistent.iter().map(|&i| hit_quality[i].clone()).collect();
-    let mut keep: Vec<usize> = screen_hits(&quality_of, settings.screening)?
-        .into_iter()
-        .map(|i| consistent[i])
-        .collect();
     let id = &settings.identifier;
     let mut c = campaign.subset(&keep);
     check_orders(&c, id)?;

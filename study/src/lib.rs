@@ -15,6 +15,10 @@
 //!   truth, as the report shows it.
 //! - [`campaign_report`]: the page of a campaign without truth (rig
 //!   records), as `frameid identify --report` writes it.
+//! - [`frf_analysis`]: identification from measured FRFs, with the checks
+//!   of the FRFs (coherence, reciprocity).
+//! - [`frfs`]: FRFs and coherence of a screened campaign of records
+//!   (`frameid frf`).
 //! - [`report`]: sweep directories into the `reports` crate's data model.
 //! - [`campaign_dir`] and [`truth`]: a simulated campaign on disk.
 //!
@@ -47,6 +51,8 @@ pub mod campaign_dir;
 pub mod campaign_report;
 mod error;
 pub mod experiment;
+pub mod frf_analysis;
+pub mod frfs;
 mod fsutil;
 pub mod report;
 pub mod representative;

@@ -1,0 +1,219 @@
+//! Identification from measured FRFs (`frameid identify` given FRF files):
+//! the checks of the FRFs, the FRF route of [`ident::frf`] (pLSCF, LSFD,
+//! MKR and Rayleigh), and what the report shows of it.
+//!
+//! # Checks of the data
+//!
+//! FRF files carry no hits to compare, so the checks are of the FRFs
+//! themselves; each result is in [`FrfChecks`], and what is suspicious
+//! becomes a warning (`--strict` refuses):
+//!
+//! - **Coherence.** Per pair, the median ordinary coherence over the band.
+//!   Below [`COHERENCE_MEDIAN_MIN`] the estimate is dominated by noise,
+//!   leakage or unmeasured inputs over much of the band.
+//! - **Reciprocity.** With several references whose points are also
+//!   response points, `H_ab = H_ba` for a linear, reciprocal structure. The
+//!   relative difference over the band is reported per pair of references;
+//!   above [`RECIPROCITY_MAX`] it is a warning (a mislabelled channel, a
+//!   calibration error, a non-reciprocal set-up).
+
+use ident::frf::{Frf, FrfIdentError, FrfIdentification, FrfIdentifier};
+use records::numfmt::sig;
+use serde::Serialize;
+
+/// Smallest median coherence of a pair over the band without a warning.
+/// A clean hammer test averages 0.95-1 between anti-resonances; 0.8 is
+/// well below that and still far above what noise alone gives.
+pub const COHERENCE_MEDIAN_MIN: f64 = 0.8;
+
+/// Largest relative reciprocity difference `||H_ab - H_ba|| / ||(H_ab +
+/// H_ba) / 2||` over the band without a warning. Measured lab FRFs reach a
+/// few percent (sensor calibrations of about 1 % each, small
+/// non-linearities); 15 % is beyond what those explain.
+pub const RECIPROCITY_MAX: f64 = 0.15;
+
+/// Median coherence of one pair over the band.
+#[derive(Debug, Clone, Serialize)]
+pub struct CoherenceCheck {
+    /// The response.
+    pub output: String,
+    /// The reference.
+    pub reference: String,
+    /// Median ordinary coherence over the band's lines.
+    pub median: f64,
+    /// Fraction of the band's lines whose coherence is below 0.5.
+    pub below_half: f64,
+}
+
+/// Reciprocity between two references that are also response points.
+#[derive(Debug, Clone, Serialize)]
+pub struct ReciprocityCheck {
+    /// First reference and the output at its point.
+    pub a: String,
+    /// Second reference and the output at its point.
+    pub b: String,
+    /// `||H_ab - H_ba|| / ||(H_ab + H_ba) / 2||` over the band.
+    pub relative_difference: f64,
+}
+
+/// The checks of the FRFs (see the module docs).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct FrfChecks {
+    /// Per pair, when the FRFs carry coherence.
+    pub coherence: Vec<CoherenceCheck>,
+    /// Per pair of references with collocated responses.
+    pub reciprocity: Vec<ReciprocityCheck>,
+}
+
+impl FrfChecks {
+    /// The findings that deserve a warning.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        for c in &self.coherence {
+            if c.median < COHERENCE_MEDIAN_MIN {
+                out.push(format!(
+                    "coherence of {} / {}: median {} over the band ({} % of the lines below 0.5); the FRF is dominated by noise, leakage or unmeasured inputs there",
+                    c.output,
+                    c.reference,
+                    sig(c.median, 3),
+                    sig(100.0 * c.below_half, 2)
+                ));
+            }
+        }
+        for r in &self.reciprocity {
+            if r.relative_difference > RECIPROCITY_MAX {
+                out.push(format!(
+                    "reciprocity: {} and {} differ by {} % over the band (more than {} %): a mislabelled or miscalibrated channel, or a set-up that is not reciprocal",
+                    r.a,
+                    r.b,
+                    sig(100.0 * r.relative_difference, 3),
+                    sig(100.0 * RECIPROCITY_MAX, 2)
+                ));
+            }
+        }
+        out
+    }
+}
+
+/// Lines of `frf` inside `band_hz` (all for `None`).
+fn lines_in(frf: &Frf, band_hz: Option<(f64, f64)>) -> Vec<usize> {
+    (0..frf.frequency_hz.len())
+        .filter(|&k| {
+            let f = frf.frequency_hz[k];
+            band_hz.is_none_or(|(lo, hi)| f >= lo && f <= hi)
+        })
+        .collect()
+}
+
+/// Runs the checks on the lines of `band_hz`; `reference_outputs[l]` is
+/// the output at reference `l`'s point, if any.
+pub fn check_frfs(
+    frf: &Frf,
+    band_hz: Option<(f64, f64)>,
+    reference_outputs: &[Option<usize>],
+) -> FrfChecks {
+    let lines = lines_in(frf, band_hz);
+    let mut checks = FrfChecks::default();
+    if lines.is_empty() {
+        return checks;
+    }
+    if let Some(coherence) = &frf.coherence {
+        for l in 0..frf.references.len() {
+            for i in 0..frf.outputs.len() {
+                let mut g: Vec<f64> = lines.iter().map(|&k| coherence[k][(i, l)]).collect();
+                g.sort_by(f64::total_cmp);
+                let below = g.iter().filter(|&&x| x < 0.5).count();
+                checks.coherence.push(CoherenceCheck {
+                    output: frf.outputs[i].clone(),
+                    reference: frf.references[l].clone(),
+                    median: g[g.len() / 2],
+                    below_half: below as f64 / g.len() as f64,
+                });
+            }
+        }
+    }
+    for a in 0..frf.references.len() {
+        for b in a + 1..frf.references.len() {
+            let (Some(ia), Some(ib)) = (
+                reference_outputs.get(a).copied().flatten(),
+                reference_outputs.get(b).copied().flatten(),
+            ) else {
+                continue;
+            };
+            // H(response at b, force at a) against H(response at a, force at b).
+            let (mut diff, mut mean) = (0.0, 0.0);
+            for &k in &lines {
+                let hab = frf.values[k][(ib, a)];
+                let hba = frf.values[k][(ia, b)];
+                diff += (hab - hba).norm_sqr();
+                mean += ((hab + hba) * 0.5).norm_sqr();
+            }
+            checks.reciprocity.push(ReciprocityCheck {
+                a: format!("{} / {}", frf.outputs[ib], frf.references[a]),
+                b: format!("{} / {}", frf.outputs[ia], frf.references[b]),
+                relative_difference: if mean > 0.0 {
+                    (diff / mean).sqrt()
+                } else {
+                    f64::NAN
+                },
+            });
+        }
+    }
+    checks
+}
+
+/// What the FRF route runs.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FrfAnalysisSettings {
+    /// The FRF identifier (band, order, weighting, selection, collocated
+    /// pair, exponential window).
+    pub identifier: FrfIdentifier,
+    /// Refuse the FRFs when a check warns.
+    pub strict: bool,
+}
+
+/// The outcome of [`analyze_frfs`].
+#[derive(Debug, Clone)]
+pub struct FrfAnalysis {
+    /// The identification.
+    pub identification: FrfIdentification,
+    /// The checks of the FRFs.
+    pub checks: FrfChecks,
+    /// Every warning: the checks', then the identification's.
+    pub warnings: Vec<String>,
+}
+
+/// Why FRFs were not identified.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum FrfAnalysisError {
+    /// `--strict` and a check warns.
+    #[error("--strict: the FRFs fail {} check(s):\n{}", lines.len(), lines.join("\n"))]
+    Strict {
+        /// The warnings.
+        lines: Vec<String>,
+    },
+    /// The identification failed.
+    #[error("FRF identification: {0}")]
+    Identification(#[from] FrfIdentError),
+}
+
+/// Checks and identifies `frf` (see the module docs).
+pub fn analyze_frfs(
+    frf: &Frf,
+    reference_outputs: &[Option<usize>],
+    settings: &FrfAnalysisSettings,
+) -> Result<FrfAnalysis, FrfAnalysisError> {
+    let checks = check_frfs(frf, settings.identifier.band_hz, reference_outputs);
+    let mut warnings = checks.warnings();
+    if settings.strict && !warnings.is_empty() {
+        return Err(FrfAnalysisError::Strict { lines: warnings });
+    }
+    let identification = settings.identifier.identify(frf)?;
+    warnings.extend(identification.warnings.iter().map(ToString::to_string));
+    Ok(FrfAnalysis {
+        identification,
+        checks,
+        warnings,
+    })
+}

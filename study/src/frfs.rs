@@ -1,0 +1,226 @@
+//! FRFs of a campaign of records, screened as `frameid identify` screens
+//! them: what `frameid frf` computes.
+//!
+//! The hits are checked first ([`analyze_located`] without error bars: the
+//! quality of each hit, each hit against the others, and each hit against
+//! the joint model). Where the campaign cannot be identified (one output
+//! only, fewer outputs than modes...), the checks of the records alone
+//! ([`screen_records`]) screen it instead, and a warning says the
+//! model-based checks were skipped. Then the kept hits are averaged: one
+//! block per hit for hammer records, Welch segments for continuous ones
+//! (as detected per record, or as the user says).
+
+use ident::Campaign;
+use ident::frf::estimate::{
+    Averaging, Estimator, ExponentialWindow, ForceWindow, FrfEstimate, FrfEstimateError, FrfParams,
+    HitAveraging, WelchAveraging,
+};
+use records::consistency::Locate;
+use records::quality::{Excitation, HitQuality};
+
+use crate::analysis::{
+    AnalysisError, AnalysisSettings, Screened, analyze_located, quality_warnings, screen_records,
+};
+
+/// How blocks are formed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum AveragingChoice {
+    /// One block per hit for hammer records, Welch segments for continuous
+    /// ones (as detected).
+    #[default]
+    Auto,
+    /// One block per hit.
+    Hits,
+    /// Welch segments of this many samples (`None`: a power of two giving
+    /// at least [`WELCH_MIN_SEGMENTS`] segments per record, at least
+    /// [`WELCH_MIN_LEN`] samples).
+    Welch(Option<usize>),
+}
+
+/// Fewest Welch segments per record the automatic segment length aims at.
+pub const WELCH_MIN_SEGMENTS: usize = 8;
+
+/// Shortest automatic Welch segment, samples.
+pub const WELCH_MIN_LEN: usize = 256;
+
+/// What `frameid frf` runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrfSettings {
+    /// The estimator written (H1, H2 or Hv).
+    pub estimator: Estimator,
+    /// How blocks are formed.
+    pub averaging: AveragingChoice,
+    /// Force window of hammer records.
+    pub force_window: Option<ForceWindow>,
+    /// Exponential window of hammer records.
+    pub exponential_window: Option<ExponentialWindow>,
+    /// Lines kept, Hz.
+    pub band_hz: Option<(f64, f64)>,
+    /// The screening of the hits (quality, consistency, strictness; the
+    /// identifier of the model-based checks).
+    pub analysis: AnalysisSettings,
+}
+
+impl Default for FrfSettings {
+    fn default() -> Self {
+        FrfSettings {
+            estimator: Estimator::H1,
+            averaging: AveragingChoice::Auto,
+            force_window: None,
+            exponential_window: None,
+            band_hz: None,
+            analysis: AnalysisSettings {
+                uncertainty: false,
+                ..AnalysisSettings::default()
+            },
+        }
+    }
+}
+
+/// FRFs of the hits kept.
+#[derive(Debug, Clone)]
+pub struct FrfOutcome {
+    /// The estimate: outputs and references named as in the campaign.
+    pub estimate: FrfEstimate,
+    /// Hits averaged.
+    pub campaign: Campaign,
+    /// Positions (in the campaign given) of the hits left out.
+    pub dropped: Vec<usize>,
+    /// The excitation the averaging was chosen for.
+    pub excitation: Excitation,
+    /// Quality of every hit given.
+    pub hit_quality: Vec<HitQuality>,
+    /// Whether the hits were also checked against the joint model.
+    pub model_checks: bool,
+    /// Every warning, naming files and channels.
+    pub warnings: Vec<String>,
+}
+
+/// Why no FRFs were estimated.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum FrfError {
+    /// The screening refused the campaign.
+    #[error(transparent)]
+    Screening(#[from] AnalysisError),
+    /// The estimation failed.
+    #[error("FRF estimation: {0}")]
+    Estimate(#[from] FrfEstimateError),
+}
+
+/// Screens `campaign` and estimates its FRFs (see the module docs).
+pub fn estimate_frfs(
+    campaign: &Campaign,
+    locate: &dyn Locate,
+    settings: &FrfSettings,
+) -> Result<FrfOutcome, FrfError> {
+    let analysis = AnalysisSettings {
+        uncertainty: false,
+        refine: None,
+        ..settings.analysis.clone()
+    };
+    let (kept, dropped, hit_quality, mut warnings, model_checks) = match analyze_located(
+        campaign, locate, &analysis,
+    ) {
+        Ok(a) => (a.campaign, a.dropped, a.hit_quality, a.warnings, true),
+        Err(
+            e @ (AnalysisError::Identification { .. }
+            | AnalysisError::TooFewOutputs { .. }
+            | AnalysisError::OrderTooSmall { .. }
+            | AnalysisError::FewerOutputsThanModes { .. }),
+        ) => {
+            let Screened {
+                hit_quality,
+                consistency,
+                keep,
+            } = screen_records(campaign, locate, &analysis)?;
+            let mut warnings = quality_warnings(&hit_quality);
+            warnings.extend(consistency.flags.iter().map(ToString::to_string));
+            let dropped: Vec<usize> = (0..campaign.len()).filter(|i| !keep.contains(i)).collect();
+            if !dropped.is_empty() {
+                warnings.push(format!(
+                    "dropped {} of {} hits: {} (--strict refuses the campaign instead)",
+                    dropped.len(),
+                    campaign.len(),
+                    dropped
+                        .iter()
+                        .map(|&i| campaign.label(i))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+            }
+            warnings.push(format!(
+                    "the hits were not checked against a joint model (the campaign could not be identified: {}); only the checks of the records alone ran",
+                    e.to_string().lines().next().unwrap_or_default()
+                ));
+            (
+                campaign.subset(&keep),
+                dropped,
+                hit_quality,
+                warnings,
+                false,
+            )
+        }
+        Err(e) => return Err(e.into()),
+    };
+    let continuous = hit_quality
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !dropped.contains(i))
+        .any(|(_, q)| q.excitation == Excitation::Continuous);
+    let samples = kept
+        .records
+        .iter()
+        .map(|r| r.outputs.ncols())
+        .max()
+        .unwrap_or(0);
+    let welch = |len: Option<usize>| {
+        let len = len.unwrap_or_else(|| {
+            let target = (samples / WELCH_MIN_SEGMENTS).max(WELCH_MIN_LEN);
+            // The largest power of two not above the target, within the record.
+            let mut p = 1usize;
+            while p * 2 <= target {
+                p *= 2;
+            }
+            p.min(samples.max(1))
+        });
+        Averaging::Welch(WelchAveraging::new(len))
+    };
+    let hits = Averaging::Hits(HitAveraging {
+        block_len: None,
+        force_window: settings.force_window,
+        exponential_window: settings.exponential_window,
+    });
+    let (averaging, excitation) = match settings.averaging {
+        AveragingChoice::Hits => (hits, Excitation::Hammer),
+        AveragingChoice::Welch(len) => (welch(len), Excitation::Continuous),
+        AveragingChoice::Auto if continuous => (welch(None), Excitation::Continuous),
+        AveragingChoice::Auto => (hits, Excitation::Hammer),
+    };
+    if matches!(averaging, Averaging::Welch(_))
+        && (settings.force_window.is_some() || settings.exponential_window.is_some())
+    {
+        warnings.push(
+            "the force and exponential windows apply to hammer records; Welch segments of continuous records use a Hann window instead"
+                .into(),
+        );
+    }
+    let mut params = FrfParams::hits()
+        .estimator(settings.estimator)
+        .averaging(averaging);
+    if let Some((lo, hi)) = settings.band_hz {
+        params = params.band_hz(lo, hi);
+    }
+    let mut estimate = params.estimate(&kept.records, kept.dt_s)?;
+    estimate.frf.outputs = kept.outputs.clone();
+    estimate.frf.references = kept.inputs.clone();
+    Ok(FrfOutcome {
+        estimate,
+        campaign: kept,
+        dropped,
+        excitation,
+        hit_quality,
+        model_checks,
+        warnings,
+    })
+}
