@@ -217,3 +217,74 @@ pub fn analyze_frfs(
         warnings,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ident::frf::FrfQuantity;
+    use nalgebra::DMatrix;
+    use num_complex::Complex64 as C;
+
+    /// Two outputs, two references at the outputs' points; `H_10` scaled
+    /// by `1 + e` against `H_01`.
+    fn frf(e: f64, coherence: f64) -> Frf {
+        let frequency_hz: Vec<f64> = (1..=8).map(f64::from).collect();
+        let values = frequency_hz
+            .iter()
+            .map(|&f| {
+                let h = C::new(1.0 / f, 0.5);
+                DMatrix::from_row_slice(2, 2, &[C::new(2.0, f), h, h * (1.0 + e), C::new(1.0, -f)])
+            })
+            .collect();
+        Frf {
+            coherence: Some(vec![DMatrix::from_element(2, 2, coherence); 8]),
+            values,
+            frequency_hz,
+            quantity: FrfQuantity::Accelerance,
+            averages: Some(10),
+            outputs: vec!["acc1".into(), "acc2".into()],
+            references: vec!["f1".into(), "f2".into()],
+        }
+    }
+
+    #[test]
+    fn reciprocity_is_the_relative_difference_of_the_transfer_pair() {
+        let c = check_frfs(&frf(0.0, 1.0), None, &[Some(0), Some(1)]);
+        assert_eq!(c.reciprocity.len(), 1);
+        assert_eq!(c.reciprocity[0].relative_difference, 0.0);
+        assert!(c.warnings().is_empty());
+        // |h (1 + e) - h| / |h (1 + e / 2)| = e / (1 + e / 2) exactly, for
+        // every line: 0.2 / 1.1.
+        let c = check_frfs(&frf(0.2, 1.0), None, &[Some(0), Some(1)]);
+        let d = c.reciprocity[0].relative_difference;
+        assert!((d - 0.2 / 1.1).abs() < 1e-12, "{d}");
+        assert!(
+            c.warnings()[0].contains("reciprocity"),
+            "{:?}",
+            c.warnings()
+        );
+        // Without the references' points, nothing to compare.
+        assert!(
+            check_frfs(&frf(0.2, 1.0), None, &[None, Some(1)])
+                .reciprocity
+                .is_empty()
+        );
+    }
+
+    #[test]
+    fn a_low_coherence_is_named_and_strict_refuses() {
+        let c = check_frfs(&frf(0.0, 0.4), Some((2.0, 5.0)), &[]);
+        assert_eq!(c.coherence.len(), 4);
+        assert_eq!(c.coherence[0].median, 0.4);
+        assert_eq!(c.coherence[0].below_half, 1.0);
+        let w = c.warnings();
+        assert_eq!(w.len(), 4);
+        assert!(w[0].contains("acc1 / f1"), "{w:?}");
+        let settings = FrfAnalysisSettings {
+            strict: true,
+            ..Default::default()
+        };
+        let e = analyze_frfs(&frf(0.0, 0.4), &[], &settings).unwrap_err();
+        assert!(matches!(e, FrfAnalysisError::Strict { ref lines } if lines.len() == 4));
+    }
+}
