@@ -92,6 +92,21 @@
 //! instead) and one reference per test or uncorrelated references (so that the ordinary
 //! coherence is the relevant one).
 //!
+//! **The variance is itself estimated.** Given the forces, `(1 - γ²) Ĝ_yy n_d / G_nn` is
+//! chi-square with `2 nu` degrees of freedom over 2, `nu = n_d - 1`: `V = V_true u` with
+//! `u ~ chi2(2 nu) / (2 nu)` independent of `Ĥ`. Weighting with such variances keeps the
+//! estimate unbiased, but over many lines (first order, the usual sandwich with
+//! independent `u` per value) the cost's expectation is `E[1/u] = nu / (nu - 1)` times
+//! `observations - unknowns`, and the estimate's covariance is `E[1/u^2] / E[1/u] = nu /
+//! (nu - 2)` times the inverse of the weighted Gauss-Newton matrix. The standard errors
+//! are scaled by `sqrt(nu / (nu - 2))` accordingly ([`FrfRefinement::uncertainty`]);
+//! with 2 or 3 averages that factor is infinite and a [`FrfRefineWarning::FewAverages`]
+//! is raised instead (standard errors unscaled, too small). The efficiency lost to the
+//! noisy weights is `(nu - 1) / (nu - 2)` in variance (14 % with 10 averages). With
+//! [`FrfNoise::CoherenceScaled`] the number of averages is unknown: the estimated scale
+//! absorbs `E[1/u]`, but the standard errors stay too small by that last factor in
+//! variance.
+//!
 //! Floors: `1 - γ²` is floored at [`FrfRefiner::coherence_floor`] (default `1e-6`, as
 //! [`super::Weighting::Coherence`]: a value is never trusted beyond a signal-to-noise
 //! power ratio of `1e6` per average, however close to 1 the coherence is; coherence 1,
@@ -400,15 +415,23 @@ pub enum FrfRefineWarning {
         stop: StopReason,
     },
     /// With given noise (coherence and averages, or known variances), the final cost is
-    /// far above its expectation `observations - unknowns` (more than 5 of its standard
-    /// deviations `sqrt(2 (observations - unknowns))`): the model misses something (a mode,
-    /// a residual term, nonlinearity) or the variances are too small; the standard errors
-    /// are then too small too.
+    /// far above its expectation (more than 5 of its standard deviations, taken as
+    /// `sqrt(2 expected)`): the model misses something (a mode, a residual term,
+    /// nonlinearity) or the variances are too small; the standard errors are then too
+    /// small too.
     CostAboveExpectation {
         /// Final cost.
         cost: f64,
-        /// `observations - unknowns`.
+        /// `observations - unknowns`, times `nu / (nu - 1)` for variances from the
+        /// coherence (see the module docs).
         expected: f64,
+    },
+    /// Variances from the coherence of fewer than 4 averages: so noisy that the
+    /// covariance of the estimate is not finite to first order; the standard errors are
+    /// not scaled (and too small).
+    FewAverages {
+        /// `n_d`.
+        averages: usize,
     },
     /// A reference DOF derived from the identification is not clear-cut.
     ReferenceDof {
@@ -441,7 +464,9 @@ pub struct FrfRefinement {
     /// Refined parameters (see `uncertainty.labels`).
     pub parameters: DVector<f64>,
     /// Standard errors from the Gauss-Newton (Fisher) matrix at the estimate, residual
-    /// terms eliminated, and the refined modal parameters with theirs.
+    /// terms eliminated, and the refined modal parameters with theirs. With variances
+    /// from the coherence and `n_d >= 4` averages, `fisher` is the weighted Gauss-Newton
+    /// matrix divided by `nu / (nu - 2)`, `nu = n_d - 1` (see the module docs).
     pub uncertainty: Uncertainty,
     /// Noise model and variances used by the final cost.
     pub noise: FrfNoiseReport,
@@ -1079,17 +1104,31 @@ impl FrfRefiner {
             Some(&problem.params),
         )
         .map_err(|_| RefineError::NonFiniteModel)?;
+        let mut warnings = start.warnings.clone();
+        // Noisy weights (variances from the coherence): covariance nu / (nu - 2) times,
+        // cost expectation nu / (nu - 1) times (see the module docs).
+        let (inflation, cost_factor) = match noise.source {
+            NoiseSource::Coherence { averages } => {
+                let nu = (averages - 1) as f64;
+                if averages >= 4 {
+                    (nu / (nu - 2.0), nu / (nu - 1.0))
+                } else {
+                    warnings.push(FrfRefineWarning::FewAverages { averages });
+                    (1.0, nu / (nu - 1.0).max(1.0))
+                }
+            }
+            _ => (1.0, 1.0),
+        };
         let uncertainty =
-            uncertainty::uncertainty(&problem.params, &model, outcome.point.fisher.clone())?;
+            uncertainty::uncertainty(&problem.params, &model, &outcome.point.fisher / inflation)?;
         let initial_cost = problem
             .evaluate(&theta0, &weights, false, false)
             .map_or(f64::INFINITY, |ev| ev.cost);
-        let mut warnings = start.warnings.clone();
         if !outcome.stop.converged() {
             warnings.push(FrfRefineWarning::NotConverged { stop: outcome.stop });
         }
         let cost = outcome.point.cost;
-        let expected = (observations - unknowns) as f64;
+        let expected = (observations - unknowns) as f64 * cost_factor;
         if !estimated && cost > expected + 5.0 * (2.0 * expected).sqrt() {
             warnings.push(FrfRefineWarning::CostAboveExpectation { cost, expected });
         }
