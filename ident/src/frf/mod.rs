@@ -17,12 +17,15 @@
 //! [`estimate`] computes FRFs and coherence from time records (H1, H2, Hv;
 //! averaged across hammer hits or over Welch segments). [`identify`] turns
 //! FRFs into modes ([`lscf`]: pLSCF poles and stabilization diagram,
-//! [`lsfd`]: residues and residual terms) and then into M, K and damping.
+//! [`lsfd`]: residues and residual terms) and then into M, K and damping;
+//! [`refine`] refines those by maximum likelihood on the FRFs themselves
+//! (weights from the coherence and the number of averages, standard errors).
 
 pub mod estimate;
 pub mod identify;
 pub mod lscf;
 pub mod lsfd;
+pub mod refine;
 #[cfg(test)]
 pub(crate) mod synth;
 
@@ -32,6 +35,10 @@ pub use identify::{
 };
 pub use lscf::{Lscf, LscfParams, LscfPole};
 pub use lsfd::{Lsfd, LsfdParams, PoleRefinement, RefineStop, ResidualTerms};
+pub use refine::{
+    FrfNoise, FrfNoiseReport, FrfRefineError, FrfRefineWarning, FrfRefinement, FrfRefiner,
+    FrfStart, NoiseSource, SubtractedMode,
+};
 
 use crate::linalg::C64;
 use nalgebra::DMatrix;

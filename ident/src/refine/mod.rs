@@ -96,13 +96,15 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-mod dense;
-mod likelihood;
-mod lm;
-mod model;
-mod param;
+// `pub(crate)`: the FRF refinement (`crate::frf::refine`) reuses the parametrization, the
+// model, the optimizer and the uncertainty propagation.
+pub(crate) mod dense;
+pub(crate) mod likelihood;
+pub(crate) mod lm;
+pub(crate) mod model;
+pub(crate) mod param;
 mod spectra;
-mod uncertainty;
+pub(crate) mod uncertainty;
 
 #[cfg(test)]
 mod tests;
@@ -287,7 +289,7 @@ pub const NOISE_CHANGE_TOLERANCE: f64 = 0.1;
 /// Gradient and step tolerances of the runs before the last noise update (cost tolerance:
 /// its square). Those runs only need residuals close enough to the final ones for the
 /// noise fit: a gradient cosine of 1e-4 leaves the cost within about 1e-7 of its minimum.
-const LOOSE_TOLERANCE: f64 = 1e-4;
+pub(crate) const LOOSE_TOLERANCE: f64 = 1e-4;
 
 /// Estimated value and standard deviation of one mode's parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
