@@ -17,9 +17,12 @@
 //!   above [`RECIPROCITY_MAX`] it is a warning (a mislabelled channel, a
 //!   calibration error, a non-reciprocal set-up).
 
+use ident::frf::refine::{FrfRefineError, FrfRefineWarning, FrfRefinement, FrfRefiner, FrfStart};
 use ident::frf::{Frf, FrfIdentError, FrfIdentification, FrfIdentifier};
 use records::numfmt::sig;
 use serde::Serialize;
+
+use crate::scenario::ParametrizationSetting;
 
 /// Smallest median coherence of a pair over the band without a warning.
 /// A clean hammer test averages 0.95-1 between anti-resonances; 0.8 is
@@ -170,6 +173,10 @@ pub struct FrfAnalysisSettings {
     pub identifier: FrfIdentifier,
     /// Refuse the FRFs when a check warns.
     pub strict: bool,
+    /// Maximum-likelihood refinement on the FRFs with this parametrization
+    /// (variances from the coherence and averages when the FRFs carry
+    /// them, else estimated per output).
+    pub refine: Option<ParametrizationSetting>,
 }
 
 /// The outcome of [`analyze_frfs`].
@@ -177,6 +184,8 @@ pub struct FrfAnalysisSettings {
 pub struct FrfAnalysis {
     /// The identification.
     pub identification: FrfIdentification,
+    /// The refinement, if asked for.
+    pub refinement: Option<FrfRefinement>,
     /// The checks of the FRFs.
     pub checks: FrfChecks,
     /// Every warning: the checks', then the identification's.
@@ -196,6 +205,37 @@ pub enum FrfAnalysisError {
     /// The identification failed.
     #[error("FRF identification: {0}")]
     Identification(#[from] FrfIdentError),
+    /// The refinement failed.
+    #[error("--refine: {0}")]
+    Refinement(#[from] FrfRefineError),
+}
+
+/// A refinement warning in the user's terms.
+fn refine_warning(w: &FrfRefineWarning) -> String {
+    match w {
+        FrfRefineWarning::NotConverged { stop } => {
+            format!("the optimizer stopped without converging ({stop:?})")
+        }
+        FrfRefineWarning::CostAboveExpectation { cost, expected } => format!(
+            "the final cost {} is far above its expectation {}: the model misses something (a mode, nonlinearity) or the coherence understates the noise; the standard errors are too small",
+            sig(*cost, 4),
+            sig(*expected, 4)
+        ),
+        FrfRefineWarning::FewAverages { averages } => format!(
+            "variances from the coherence of only {averages} averages: the standard errors are too small"
+        ),
+        FrfRefineWarning::ReferenceDof {
+            reference,
+            dof,
+            dominance,
+        } => format!(
+            "reference {} was placed at floor {} but the identified input matrix is not clear-cut there (dominance {})",
+            reference + 1,
+            dof + 1,
+            sig(*dominance, 3)
+        ),
+        other => format!("{other:?}"),
+    }
 }
 
 /// Checks and identifies `frf` (see the module docs).
@@ -211,8 +251,28 @@ pub fn analyze_frfs(
     }
     let identification = settings.identifier.identify(frf)?;
     warnings.extend(identification.warnings.iter().map(ToString::to_string));
+    let refinement = match settings.refine {
+        Some(p) => {
+            let start =
+                FrfStart::from_identification(&identification, settings.identifier.collocated)?;
+            let mut refiner =
+                FrfRefiner::default().parametrization(p.parametrization(frf.outputs.len()));
+            if let Some((lo, hi)) = settings.identifier.band_hz {
+                refiner = refiner.band_hz(lo, hi);
+            }
+            let r = refiner.refine(frf, &start)?;
+            warnings.extend(
+                r.warnings
+                    .iter()
+                    .map(|w| format!("--refine: {}", refine_warning(w))),
+            );
+            Some(r)
+        }
+        None => None,
+    };
     Ok(FrfAnalysis {
         identification,
+        refinement,
         checks,
         warnings,
     })
