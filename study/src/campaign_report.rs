@@ -381,21 +381,11 @@ pub fn time_report(
         ),
     ];
     if let Some(r) = &analysis.refinement {
-        let u = &r.uncertainty;
-        tables.push(table(
-            "Mass matrix M, refined (ML)",
-            "kg",
-            matrix_rows("M", &r.mass, |i, j| Some(u.mass_std[(i, j)])),
-        ));
-        tables.push(table(
-            "Stiffness matrix K, refined (ML)",
-            "N/m",
-            matrix_rows("K", &r.stiffness, |i, j| Some(u.stiffness_std[(i, j)])),
-        ));
-        tables.push(table(
-            "Damping matrix, refined (ML)",
-            "N s/m",
-            matrix_rows("R", &r.damping, |i, j| Some(u.damping_std[(i, j)])),
+        tables.extend(refined_tables(
+            &r.mass,
+            &r.stiffness,
+            &r.damping,
+            &r.uncertainty,
         ));
     }
     rm::CampaignReport {
@@ -486,4 +476,246 @@ fn reports_sig(v: f64) -> String {
     }
     let s = format!("{v:.6}");
     s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// Tables of a maximum-likelihood refinement with its standard errors.
+fn refined_tables(
+    mass: &DMatrix<f64>,
+    stiffness: &DMatrix<f64>,
+    damping: &DMatrix<f64>,
+    u: &ident::refine::Uncertainty,
+) -> Vec<rm::ValueTable> {
+    let modes = |label: &str, scale: f64, pick: fn(&ident::refine::ModalEstimate) -> (f64, f64)| {
+        u.modes
+            .iter()
+            .enumerate()
+            .map(|(j, m)| {
+                let (value, std) = pick(m);
+                rm::ValueRow {
+                    label: format!("{label}{}", j + 1),
+                    value: scale * value,
+                    std: Some(scale * std),
+                }
+            })
+            .collect()
+    };
+    vec![
+        table(
+            "Natural frequencies, refined (ML)",
+            "Hz",
+            modes("f", 1.0, |m| (m.frequency_hz, m.frequency_std_hz)),
+        ),
+        table(
+            "Damping ratios, refined (ML)",
+            "%",
+            modes("xi", 100.0, |m| (m.damping_ratio, m.damping_ratio_std)),
+        ),
+        table(
+            "Mass matrix M, refined (ML)",
+            "kg",
+            matrix_rows("M", mass, |i, j| Some(u.mass_std[(i, j)])),
+        ),
+        table(
+            "Stiffness matrix K, refined (ML)",
+            "N/m",
+            matrix_rows("K", stiffness, |i, j| Some(u.stiffness_std[(i, j)])),
+        ),
+        table(
+            "Damping matrix, refined (ML)",
+            "N s/m",
+            matrix_rows("R", damping, |i, j| Some(u.damping_std[(i, j)])),
+        ),
+    ]
+}
+
+/// The page of an identification from measured FRFs. `source` holds the
+/// rows on the files and points (the caller knows them); `reference_dofs`
+/// is the floor (0-based) of each reference force where known, for the
+/// model's FRFs.
+pub fn frf_report(
+    analysis: &crate::frf_analysis::FrfAnalysis,
+    frf: &ident::frf::Frf,
+    reference_dofs: &[Option<usize>],
+    mut source: Vec<rm::SetupRow>,
+    command: &str,
+) -> rm::CampaignReport {
+    let id = &analysis.identification;
+    let mut warnings = analysis.warnings.clone();
+    source.push(row(
+        "Method",
+        format!(
+            "pLSCF (order {}) → LSFD with residual terms → MKR + Rayleigh{}",
+            id.order,
+            if analysis.refinement.is_some() {
+                ", maximum-likelihood refinement on the FRFs"
+            } else {
+                ""
+            }
+        ),
+    ));
+    if let Some(tau) = id.exponential_tau_s {
+        source.push(row(
+            "Exponential window",
+            format!(
+                "tau = {} s: its damping (1 / (tau omega) of critical) is removed from the modes, M, K and damping",
+                reports_sig(tau)
+            ),
+        ));
+    }
+    for c in &analysis.checks.reciprocity {
+        source.push(row(
+            "Reciprocity",
+            format!(
+                "{} against {}: {} % relative difference over the band",
+                c.a,
+                c.b,
+                reports_sig(100.0 * c.relative_difference)
+            ),
+        ));
+    }
+    let mode = |j: &usize| {
+        let m = &id.modes[*j];
+        mode_shape(
+            m.frequency_hz,
+            m.damping_ratio,
+            &m.shape.iter().copied().collect::<Vec<_>>(),
+        )
+    };
+    let (mass, stiffness, damping) = match &analysis.refinement {
+        Some(r) => (&r.mass, &r.stiffness, &r.damping),
+        None => (&id.mass, &id.stiffness, &id.damping_rayleigh),
+    };
+    // Shown as accelerance whatever the quantity: (i w)^(2 - d) H.
+    let d = frf.quantity.derivative_order();
+    let lines: Vec<usize> = (0..frf.frequency_hz.len())
+        .filter(|&k| frf.frequency_hz[k] > 0.0)
+        .collect();
+    let to_accelerance = |k: usize, z: Complex64| {
+        let w = Complex64::new(0.0, 2.0 * std::f64::consts::PI * frf.frequency_hz[k]);
+        z * w.powi(2 - d)
+    };
+    let mut frfs = Vec::new();
+    for l in 0..frf.references.len() {
+        let model: Option<Vec<Vec<Complex64>>> = reference_dofs
+            .get(l)
+            .copied()
+            .flatten()
+            .filter(|&dof| dof < mass.nrows())
+            .map(|dof| {
+                lines
+                    .iter()
+                    .map(|&k| {
+                        accelerance(
+                            mass,
+                            stiffness,
+                            damping,
+                            dof,
+                            2.0 * std::f64::consts::PI * frf.frequency_hz[k],
+                        )
+                    })
+                    .collect()
+            });
+        for i in 0..frf.outputs.len() {
+            frfs.push(rm::Frf {
+                output: frf.outputs[i].clone(),
+                frequency_hz: lines.iter().map(|&k| frf.frequency_hz[k]).collect(),
+                measured: lines
+                    .iter()
+                    .map(|&k| {
+                        let z = to_accelerance(k, frf.values[k][(i, l)]);
+                        [z.re, z.im]
+                    })
+                    .collect(),
+                identified: model
+                    .as_ref()
+                    .filter(|_| i < mass.nrows())
+                    .map(|m| m.iter().map(|h| [h[i].re, h[i].im]).collect())
+                    .unwrap_or_default(),
+                truth: None,
+                reference: Some(frf.references[l].clone()),
+                coherence: frf
+                    .coherence
+                    .as_ref()
+                    .map(|g| lines.iter().map(|&k| g[k][(i, l)]).collect()),
+            });
+        }
+    }
+    if frfs.iter().all(|f| f.identified.is_empty()) {
+        warnings.push("the model's FRFs are not drawn: no reference is placed on a floor".into());
+    }
+    let mut tables = vec![
+        table(
+            "Natural frequencies",
+            "Hz",
+            id.frequencies_hz
+                .iter()
+                .enumerate()
+                .map(|(j, &f)| rm::ValueRow {
+                    label: format!("f{}", j + 1),
+                    value: f,
+                    std: None,
+                })
+                .collect(),
+        ),
+        table(
+            "Damping ratios",
+            "%",
+            id.damping_ratios
+                .iter()
+                .enumerate()
+                .map(|(j, &x)| rm::ValueRow {
+                    label: format!("xi{}", j + 1),
+                    value: 100.0 * x,
+                    std: None,
+                })
+                .collect(),
+        ),
+        table(
+            "Mass matrix M",
+            "kg",
+            matrix_rows("M", &id.mass, |_, _| None),
+        ),
+        table(
+            "Stiffness matrix K",
+            "N/m",
+            matrix_rows("K", &id.stiffness, |_, _| None),
+        ),
+        table(
+            "Damping matrix, MKR",
+            "N s/m",
+            matrix_rows("R", &id.damping_mkr, |_, _| None),
+        ),
+        table(
+            "Damping matrix, Rayleigh",
+            "N s/m",
+            matrix_rows("R", &id.damping_rayleigh, |_, _| None),
+        ),
+    ];
+    if let Some(r) = &analysis.refinement {
+        tables.extend(refined_tables(
+            &r.mass,
+            &r.stiffness,
+            &r.damping,
+            &r.uncertainty,
+        ));
+    }
+    rm::CampaignReport {
+        title: "frameid identification from FRFs".into(),
+        frameid_version: env!("CARGO_PKG_VERSION").into(),
+        command: command.into(),
+        source,
+        warnings,
+        hit_quality: Vec::new(),
+        order: id.order,
+        stabilization: id
+            .diagram
+            .points()
+            .iter()
+            .map(stabilization_point)
+            .collect(),
+        modes: id.mkr_modes.iter().map(mode).collect(),
+        out_of_model: id.out_of_model.iter().map(mode).collect(),
+        frf: frfs,
+        tables,
+    }
 }
