@@ -132,7 +132,8 @@ pub fn matrix_rows(
     rows
 }
 
-fn row(label: &str, value: impl Into<String>) -> rm::SetupRow {
+/// A row of the source table.
+pub fn setup_row(label: &str, value: impl Into<String>) -> rm::SetupRow {
     rm::SetupRow {
         label: label.into(),
         value: value.into(),
@@ -182,8 +183,8 @@ pub fn time_report(
         )
     };
     let mut source = vec![
-        row("Files", files.join(", ")),
-        row(
+        setup_row("Files", files.join(", ")),
+        setup_row(
             "Records identified",
             format!(
                 "{} of {} given{}",
@@ -204,7 +205,7 @@ pub fn time_report(
                 }
             ),
         ),
-        row(
+        setup_row(
             "Sampling",
             format!(
                 "{} Hz ({} s), {samples} samples per record",
@@ -212,9 +213,9 @@ pub fn time_report(
                 reports_sig(c.dt_s)
             ),
         ),
-        row("Inputs", c.inputs.join(", ")),
-        row("Outputs (DOF order)", c.outputs.join(", ")),
-        row(
+        setup_row("Inputs", c.inputs.join(", ")),
+        setup_row("Outputs (DOF order)", c.outputs.join(", ")),
+        setup_row(
             "Collocated pair",
             format!(
                 "{} / {}",
@@ -226,8 +227,8 @@ pub fn time_report(
                     .map_or("?", String::as_str)
             ),
         ),
-        row("Excitation", excitation),
-        row(
+        setup_row("Excitation", excitation),
+        setup_row(
             "Method",
             format!(
                 "OKID → ERA/DC (state order {}), {:?} intersample, MKR + Rayleigh{}",
@@ -240,8 +241,8 @@ pub fn time_report(
                 }
             ),
         ),
-        row("Mode selection", format!("{:?}", id.mode_selection)),
-        row(
+        setup_row("Mode selection", format!("{:?}", id.mode_selection)),
+        setup_row(
             "Error bars",
             match (&analysis.uncertainty, &analysis.uncertainty_skipped) {
                 (Some(j), _) => format!("{} over {} resamples", j.method, j.resamples),
@@ -308,7 +309,7 @@ pub fn time_report(
     };
     let frf = match params.estimate(&c.records, c.dt_s) {
         Ok(est) => {
-            source.push(row(
+            source.push(setup_row(
                 "Measured FRFs",
                 format!(
                     "{} with ordinary coherence, {} average(s) ({}); model drawn: {drawn}",
@@ -541,7 +542,7 @@ pub fn frf_report(
 ) -> rm::CampaignReport {
     let id = &analysis.identification;
     let mut warnings = analysis.warnings.clone();
-    source.push(row(
+    source.push(setup_row(
         "Method",
         format!(
             "pLSCF (order {}) → LSFD with residual terms → MKR + Rayleigh{}",
@@ -554,7 +555,7 @@ pub fn frf_report(
         ),
     ));
     if let Some(tau) = id.exponential_tau_s {
-        source.push(row(
+        source.push(setup_row(
             "Exponential window",
             format!(
                 "tau = {} s: its damping (1 / (tau omega) of critical) is removed from the modes, M, K and damping",
@@ -563,7 +564,7 @@ pub fn frf_report(
         ));
     }
     for c in &analysis.checks.reciprocity {
-        source.push(row(
+        source.push(setup_row(
             "Reciprocity",
             format!(
                 "{} against {}: {} % relative difference over the band",
