@@ -1357,7 +1357,7 @@ impl FrfRefiner {
                             ),
                         });
                     }
-                    if let Some(x) = m.iter().find(|x| !(**x > 0.0)) {
+                    if let Some(x) = m.iter().find(|x| x.is_nan() || **x <= 0.0) {
                         return Err(FrfRefineError::Noise {
                             model: "known",
                             reason: format!("variance {x} at line {k} must be positive"),
