@@ -130,6 +130,14 @@ pub enum RecordError {
         problem: String,
     },
 
+    /// FRF files that do not make one FRF matrix (see
+    /// [`assemble`](crate::frf::assemble)).
+    #[error("cannot assemble the FRFs: {problem}")]
+    FrfSet {
+        /// What is wrong (boxed to keep the error small).
+        problem: Box<crate::frf::FrfSetProblem>,
+    },
+
     /// Every channel of the record is an input: nothing to identify.
     #[error("{}: no output channels besides the input", path.display())]
     NoOutputs {

@@ -74,8 +74,8 @@ pub use crate::format::{
     parse_record, read_campaign, read_record, write_csv, write_record, write_uff58,
 };
 pub use crate::frf::{
-    ContentKind, FrfFile, FrfFormat, FrfPair, FrfPoint, FrfReadOptions, content_kind, encode_frf,
-    parse_frf, read_frf, write_frf,
+    AssembleOptions, ContentKind, FrfFile, FrfFormat, FrfPair, FrfPoint, FrfReadOptions, FrfSet,
+    content_kind, encode_frf, parse_frf, read_frf, write_frf,
 };
 pub use crate::record::{Channel, Format, ReadOptions, RecordFile, SampleLines};
 pub use crate::select::select;

@@ -84,8 +84,11 @@
 //! `1..6 = +X, +Y, +Z, +RX, +RY, +RZ`, negative for minus, 0 scalar.
 //! Datasets and CSV columns in messages are 1-based.
 
+mod assemble;
 mod csv;
 mod uff58;
+
+pub use assemble::{AssembleOptions, FrfSet, FrfSetProblem, assemble};
 
 use std::fmt;
 use std::path::{Path, PathBuf};
