@@ -64,12 +64,12 @@ pub(crate) fn time_column_scale(bare: &str, unit: Option<&str>) -> Option<Result
     })
 }
 
-type Cells<'a> = Vec<std::borrow::Cow<'a, str>>;
+pub(crate) type Cells<'a> = Vec<std::borrow::Cow<'a, str>>;
 
 /// Splits a line at `delim`, honouring double quotes ("" inside quotes is a
 /// quote). Cells are trimmed. Returns the 1-based column of an unclosed
 /// quote as error.
-fn split_line(line: &str, delim: char) -> Result<Cells<'_>, usize> {
+pub(crate) fn split_line(line: &str, delim: char) -> Result<Cells<'_>, usize> {
     if !line.contains('"') {
         return Ok(line.split(delim).map(|c| c.trim().into()).collect());
     }
@@ -112,7 +112,7 @@ fn split_line(line: &str, delim: char) -> Result<Cells<'_>, usize> {
 /// Picks the delimiter from the header line: the most frequent of tab,
 /// semicolon and comma outside quotes (ties in that order); comma for a
 /// single column.
-fn detect_delimiter(header: &str) -> char {
+pub(crate) fn detect_delimiter(header: &str) -> char {
     let (mut tabs, mut semis, mut commas) = (0usize, 0usize, 0usize);
     let mut in_quotes = false;
     for c in header.chars() {

@@ -130,6 +130,14 @@ pub enum RecordError {
         problem: String,
     },
 
+    /// FRF files that do not make one FRF matrix (see
+    /// [`assemble`](crate::frf::assemble)).
+    #[error("cannot assemble the FRFs: {problem}")]
+    FrfSet {
+        /// What is wrong (boxed to keep the error small).
+        problem: Box<crate::frf::FrfSetProblem>,
+    },
+
     /// Every channel of the record is an input: nothing to identify.
     #[error("{}: no output channels besides the input", path.display())]
     NoOutputs {
@@ -386,8 +394,9 @@ pub enum Problem {
     },
     /// A dataset 58 that is not a time response (an FRF, a spectrum, ...).
     #[error(
-        "function type {func_type} ({}) is not supported; only 1 (time response) is",
-        func_type_name(*func_type)
+        "function type {func_type} ({}) is not supported; only 1 (time response) is{}",
+        func_type_name(*func_type),
+        if *func_type == 4 || *func_type == 6 { " (this is an FRF file: read it as FRFs)" } else { "" }
     )]
     UffUnsupportedFunction {
         /// Record 6 field 1: the UFF function type (1 = time response).
@@ -436,6 +445,123 @@ pub enum Problem {
     UffUnsupportedBinary {
         /// The header field and its value, with what is supported.
         what: String,
+    },
+    /// A dataset 58 in an FRF file that is neither an FRF nor a coherence.
+    #[error(
+        "function type {func_type} ({}) is not an FRF; an FRF file holds function types 4 (frequency response function) and 6 (coherence){}",
+        func_type_name(*func_type),
+        if *func_type == 1 { " (this is a time record: read it as a record)" } else { "" }
+    )]
+    UffNotFrf {
+        /// Record 6 field 1: the UFF function type found.
+        func_type: i64,
+    },
+    /// An ordinate data type that does not fit the function type: FRFs are
+    /// complex, coherences real.
+    #[error(
+        "ordinate data type {ord_type} ({}) does not fit function type {func_type} ({}): {}",
+        ord_type_name(*ord_type),
+        func_type_name(*func_type),
+        if *func_type == 4 { "an FRF is complex (5 complex single or 6 complex double)" } else { "a coherence is real (2 real single or 4 real double)" }
+    )]
+    UffFrfOrdinate {
+        /// Record 7 field 1: the ordinate data type (2, 4 real; 5, 6 complex).
+        ord_type: i64,
+        /// Record 6 field 1: the function type (4 FRF, 6 coherence).
+        func_type: i64,
+    },
+    /// An FRF whose abscissa is not a frequency in hertz.
+    #[error(
+        "the abscissa is {found}, not a frequency in Hz (record 8: specific data type 18 or 0, unit Hz or kHz)"
+    )]
+    FrfAbscissa {
+        /// What record 8 states (specific data type and unit label).
+        found: String,
+    },
+    /// An FRF whose quantity (receptance, mobility, accelerance) or unit
+    /// cannot be decided from the file, or is contradictory.
+    #[error("cannot decide the FRF's quantity or unit: {reason}")]
+    FrfUnit {
+        /// What the file states and why it does not decide (names the unit
+        /// label or data type found).
+        reason: String,
+    },
+    /// A coherence (function type 6) with no FRF of the same response and
+    /// reference in the file.
+    #[error(
+        "coherence of response {response} and reference {reference} has no FRF of the same pair in the file"
+    )]
+    FrfOrphanCoherence {
+        /// The response point (`node:direction` or name).
+        response: String,
+        /// The reference point.
+        reference: String,
+    },
+    /// A coherence value outside [0, 1].
+    #[error("coherence {value} is outside [0, 1]")]
+    FrfBadCoherence {
+        /// The value found.
+        value: f64,
+    },
+    /// Two FRFs (or two coherences) of the same response and reference in one file.
+    #[error(
+        "a second {what} of response {response} and reference {reference}; the first is {first}"
+    )]
+    FrfDuplicatePair {
+        /// `FRF` or `coherence`.
+        what: &'static str,
+        /// The response point.
+        response: String,
+        /// The reference point.
+        reference: String,
+        /// The dataset (1-based) of the first one.
+        first: usize,
+    },
+    /// The FRFs of one file are on different frequency grids.
+    #[error(
+        "{what} is {value}, but dataset {first} has {first_value}; all FRFs of a file share one frequency grid"
+    )]
+    FrfGridMismatch {
+        /// Which property differs (number of lines, a frequency).
+        what: String,
+        /// Its value here.
+        value: String,
+        /// The dataset (1-based) compared with: the file's first FRF.
+        first: usize,
+        /// Its value there.
+        first_value: String,
+    },
+    /// A frequency that is negative or not above the previous one.
+    #[error("frequency {value} Hz {reason}")]
+    FrfBadFrequency {
+        /// The frequency (Hz).
+        value: f64,
+        /// What is wrong (`is negative`, `is not above the previous line (x Hz)`).
+        reason: String,
+    },
+    /// A CSV FRF header that does not follow the convention (see `records::frf`).
+    #[error("{reason}")]
+    FrfCsvHeader {
+        /// What is wrong with the header cell and what was expected.
+        reason: String,
+    },
+    /// An FRF file that does not state something the reader needs (the
+    /// quantity of a CSV column without unit; the points and quantity of a
+    /// headerless file), and the read option that would supply it is absent.
+    #[error("the file does not state {what}; give FrfReadOptions::{option}")]
+    FrfMissingOption {
+        /// The option's field name in `FrfReadOptions`.
+        option: &'static str,
+        /// What the file does not state.
+        what: &'static str,
+    },
+    /// A complex number that is not in the form its notation requires.
+    #[error("'{text}' is not a complex number ({reason})")]
+    NotComplex {
+        /// The text found (an excerpt if long).
+        text: String,
+        /// What was expected.
+        reason: &'static str,
     },
     /// The file holds UFF datasets, none of them a dataset 58.
     #[error("no dataset 58 (function at nodal DOF) in the file{}", if found.is_empty() { String::new() } else { format!("; datasets found: {}", found.iter().map(|d| d.to_string()).collect::<Vec<_>>().join(", ")) })]

@@ -55,6 +55,7 @@ pub mod consistency;
 mod csv;
 mod error;
 mod format;
+pub mod frf;
 pub mod numfmt;
 pub mod quality;
 pub mod realization;
@@ -71,6 +72,10 @@ pub use crate::error::{CampaignMismatch, IoOp, Location, Problem, RecordError};
 pub use crate::format::{
     CAMPAIGN_DT_REL_TOL, Csv, FORMATS, FileFormat, MAX_FILE_BYTES, Uff58, check_campaign, detect,
     parse_record, read_campaign, read_record, write_csv, write_record, write_uff58,
+};
+pub use crate::frf::{
+    AssembleOptions, ContentKind, FrfFile, FrfFormat, FrfPair, FrfPoint, FrfReadOptions, FrfSet,
+    content_kind, encode_frf, parse_frf, read_frf, write_frf,
 };
 pub use crate::record::{Channel, Format, ReadOptions, RecordFile, SampleLines};
 pub use crate::select::select;

@@ -37,21 +37,22 @@ use crate::timeaxis::{self, PrintModel};
 
 /// Relative precision of an E13.5 number (6 significant digits): two
 /// readings of the same quantity printed this way agree to 5e-6.
-const E13_REL: f64 = 1e-5;
+pub(crate) const E13_REL: f64 = 1e-5;
 
 /// Tag frameid writes into ID line 5 to carry the exact sampling interval
 /// and start time that record 7 (E13.5) can only hold to 6 digits.
-const TAG: &str = "frameid";
+pub(crate) const TAG: &str = "frameid";
 
-struct Cursor<'a> {
+/// A position in a UFF file being read.
+pub(crate) struct Cursor<'a> {
     data: &'a [u8],
     pos: usize,
     /// Number of the next line to be returned.
-    line: usize,
+    pub line: usize,
 }
 
 impl<'a> Cursor<'a> {
-    fn next_line(&mut self) -> Option<(usize, &'a [u8])> {
+    pub fn next_line(&mut self) -> Option<(usize, &'a [u8])> {
         if self.pos >= self.data.len() {
             return None;
         }
@@ -123,7 +124,7 @@ fn expect_delimiter(
     }
 }
 
-fn is_delimiter(line: &[u8]) -> bool {
+pub(crate) fn is_delimiter(line: &[u8]) -> bool {
     line.trim_ascii() == b"-1"
 }
 
@@ -133,7 +134,7 @@ fn text(bytes: &[u8]) -> Cow<'_, str> {
 
 /// A free-text field (ID line, label): control characters, such as the
 /// NUL padding some writers use, count as blanks; the result is trimmed.
-fn free_text(bytes: &[u8]) -> String {
+pub(crate) fn free_text(bytes: &[u8]) -> String {
     text(bytes)
         .chars()
         .map(|c| if c.is_control() { ' ' } else { c })
@@ -149,7 +150,7 @@ fn columns(line: &[u8], from: usize, to: usize) -> &[u8] {
 }
 
 /// Shortened text of a line for messages.
-fn excerpt(line: &[u8]) -> String {
+pub(crate) fn excerpt(line: &[u8]) -> String {
     let t = text(line.trim_ascii());
     if t.chars().count() > 40 {
         format!("{}...", t.chars().take(40).collect::<String>())
@@ -159,13 +160,13 @@ fn excerpt(line: &[u8]) -> String {
 }
 
 /// Parsing context of one dataset, for locating errors.
-struct Ctx<'p> {
-    path: &'p Path,
-    dataset: usize,
+pub(crate) struct Ctx<'p> {
+    pub path: &'p Path,
+    pub dataset: usize,
 }
 
 impl Ctx<'_> {
-    fn at(&self, line: usize, field: impl Into<String>) -> Location {
+    pub fn at(&self, line: usize, field: impl Into<String>) -> Location {
         Location {
             dataset: Some(self.dataset),
             line: Some(line),
@@ -174,7 +175,7 @@ impl Ctx<'_> {
         }
     }
 
-    fn at_line(&self, line: usize) -> Location {
+    pub fn at_line(&self, line: usize) -> Location {
         Location {
             dataset: Some(self.dataset),
             line: Some(line),
@@ -182,7 +183,7 @@ impl Ctx<'_> {
         }
     }
 
-    fn err(&self, at: Location, problem: Problem) -> RecordError {
+    pub fn err(&self, at: Location, problem: Problem) -> RecordError {
         RecordError::Parse {
             path: self.path.to_path_buf(),
             at: Box::new(at),
@@ -190,7 +191,7 @@ impl Ctx<'_> {
         }
     }
 
-    fn bad_field(&self, line: usize, field: &str, text: &[u8], reason: &str) -> RecordError {
+    pub fn bad_field(&self, line: usize, field: &str, text: &[u8], reason: &str) -> RecordError {
         self.err(
             self.at(line, field),
             Problem::UffBadField {
@@ -200,7 +201,7 @@ impl Ctx<'_> {
         )
     }
 
-    fn truncated(&self, line: usize, missing: impl Into<String>) -> RecordError {
+    pub fn truncated(&self, line: usize, missing: impl Into<String>) -> RecordError {
         self.err(
             self.at_line(line),
             Problem::UffTruncated {
@@ -224,7 +225,8 @@ fn dataset_header(line: &[u8]) -> Option<(u32, bool, &[u8])> {
     }
 }
 
-struct BinaryHeader {
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct BinaryHeader {
     byte_order: i64,
     fp_format: i64,
     ascii_lines: i64,
@@ -271,11 +273,25 @@ fn binary_header(ctx: &Ctx, line_no: usize, rest: &[u8]) -> Result<BinaryHeader,
     })
 }
 
-/// Record 6, the fields used here.
-struct Rec6 {
-    func_type: i64,
-    node: i64,
-    direction: i64,
+/// Which function types a reader accepts, checked as soon as record 6 and
+/// record 7 are read (before the data).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Expect {
+    /// Time responses (function type 1), real ordinates.
+    TimeRecord,
+    /// FRFs (function type 4) and coherences (6), real or complex ordinates.
+    Frf,
+}
+
+/// Record 6: the DOF identification.
+pub(crate) struct Rec6 {
+    pub func_type: i64,
+    pub response_entity: String,
+    pub response_node: i64,
+    pub response_direction: i64,
+    pub reference_entity: String,
+    pub reference_node: i64,
+    pub reference_direction: i64,
 }
 
 const REC6_FIELDS: [(&str, usize, usize); 10] = [
@@ -303,7 +319,7 @@ fn parse_int_field(bytes: &[u8]) -> Result<i64, ()> {
         .map_err(|_| ())
 }
 
-fn record6(ctx: &Ctx, line_no: usize, line: &[u8]) -> Result<Rec6, RecordError> {
+fn record6(ctx: &Ctx, line_no: usize, line: &[u8], expect: Expect) -> Result<Rec6, RecordError> {
     const INTS: [usize; 8] = [0, 1, 2, 3, 5, 6, 8, 9];
     // Blank-separated: ten tokens (entity names without blanks).
     let t = text(line);
@@ -312,7 +328,16 @@ fn record6(ctx: &Ctx, line_no: usize, line: &[u8]) -> Result<Rec6, RecordError> 
         let ints: Option<Vec<i64>> = INTS.iter().map(|&i| tokens[i].parse().ok()).collect();
         if let Some(v) = ints {
             // v holds the fields listed in INTS: v[4] is field 6 (node).
-            return check_rec6(ctx, line_no, v[0], v[4], v[5], tokens[6].as_bytes());
+            let r6 = Rec6 {
+                func_type: v[0],
+                response_entity: tokens[4].to_string(),
+                response_node: v[4],
+                response_direction: v[5],
+                reference_entity: tokens[7].to_string(),
+                reference_node: v[6],
+                reference_direction: v[7],
+            };
+            return check_rec6(ctx, line_no, r6, [tokens[6], tokens[9]], expect);
         }
     }
     // Fixed columns.
@@ -334,48 +359,76 @@ fn record6(ctx: &Ctx, line_no: usize, line: &[u8]) -> Result<Rec6, RecordError> 
             )
         })?;
     }
-    check_rec6(ctx, line_no, v[0], v[5], v[6], columns(line, 51, 55))
+    let r6 = Rec6 {
+        func_type: v[0],
+        response_entity: free_text(columns(line, 31, 41)),
+        response_node: v[5],
+        response_direction: v[6],
+        reference_entity: free_text(columns(line, 56, 66)),
+        reference_node: v[8],
+        reference_direction: v[9],
+    };
+    let dirs = [text(columns(line, 51, 55)), text(columns(line, 76, 80))];
+    check_rec6(ctx, line_no, r6, [&dirs[0], &dirs[1]], expect)
 }
 
 fn check_rec6(
     ctx: &Ctx,
     line_no: usize,
-    func_type: i64,
-    node: i64,
-    direction: i64,
-    dir_text: &[u8],
+    r6: Rec6,
+    dir_texts: [&str; 2],
+    expect: Expect,
 ) -> Result<Rec6, RecordError> {
-    if func_type != 1 {
+    let accepted = match expect {
+        Expect::TimeRecord => r6.func_type == 1,
+        Expect::Frf => r6.func_type == 4 || r6.func_type == 6,
+    };
+    if !accepted {
+        let func_type = r6.func_type;
         return Err(ctx.err(
             ctx.at(line_no, "record 6 field 1 (function type)"),
-            Problem::UffUnsupportedFunction { func_type },
+            match expect {
+                Expect::TimeRecord => Problem::UffUnsupportedFunction { func_type },
+                Expect::Frf => Problem::UffNotFrf { func_type },
+            },
         ));
     }
-    if !(-6..=6).contains(&direction) {
+    if !(-6..=6).contains(&r6.response_direction) {
         return Err(ctx.bad_field(
             line_no,
             "record 6 field 7 (response direction)",
-            dir_text,
+            dir_texts[0].as_bytes(),
             "a direction is -6..6",
         ));
     }
-    Ok(Rec6 {
-        func_type,
-        node,
-        direction,
-    })
+    // The reference of a time response is not used; an FRF's is its input.
+    if expect == Expect::Frf && !(-6..=6).contains(&r6.reference_direction) {
+        return Err(ctx.bad_field(
+            line_no,
+            "record 6 field 10 (reference direction)",
+            dir_texts[1].as_bytes(),
+            "a direction is -6..6",
+        ));
+    }
+    Ok(r6)
 }
 
 /// Record 7.
-struct Rec7 {
-    ord_type: i64,
-    count: u64,
-    even: bool,
-    x_min: f64,
-    dx: f64,
+pub(crate) struct Rec7 {
+    pub ord_type: i64,
+    pub count: u64,
+    pub even: bool,
+    pub x_min: f64,
+    pub dx: f64,
 }
 
-fn record7(ctx: &Ctx, line_no: usize, line: &[u8]) -> Result<Rec7, RecordError> {
+fn record7(
+    ctx: &Ctx,
+    line_no: usize,
+    line: &[u8],
+    expect: Expect,
+    func_type: i64,
+) -> Result<Rec7, RecordError> {
     const NAMES: [&str; 5] = [
         "ordinate data type",
         "number of values",
@@ -437,11 +490,28 @@ fn record7(ctx: &Ctx, line_no: usize, line: &[u8]) -> Result<Rec7, RecordError> 
         };
     }
     let [ord_type, count, spacing] = ints;
-    if ord_type != 2 && ord_type != 4 {
-        return Err(ctx.err(
-            ctx.at(line_no, "record 7 field 1 (ordinate data type)"),
-            Problem::UffUnsupportedOrdinate { ord_type },
-        ));
+    let at = || ctx.at(line_no, "record 7 field 1 (ordinate data type)");
+    match expect {
+        Expect::TimeRecord if ord_type != 2 && ord_type != 4 => {
+            return Err(ctx.err(at(), Problem::UffUnsupportedOrdinate { ord_type }));
+        }
+        Expect::Frf => {
+            let fits = if func_type == 4 {
+                ord_type == 5 || ord_type == 6
+            } else {
+                ord_type == 2 || ord_type == 4
+            };
+            if !fits {
+                return Err(ctx.err(
+                    at(),
+                    Problem::UffFrfOrdinate {
+                        ord_type,
+                        func_type,
+                    },
+                ));
+            }
+        }
+        Expect::TimeRecord => {}
     }
     let count = match u64::try_from(count) {
         Ok(c) if c > 0 => c,
@@ -482,25 +552,50 @@ fn record7(ctx: &Ctx, line_no: usize, line: &[u8]) -> Result<Rec7, RecordError> 
     })
 }
 
-/// Records 8-11: axis label and unit label.
-fn labels(line: &[u8]) -> (String, String) {
+/// Records 8-11: data characteristics of an axis. Integer fields that do
+/// not parse are `None` (the time reader does not use them; the FRF reader
+/// refuses them where it needs them).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct AxisRecord {
+    /// Field 1: specific data type (8 displacement, 11 velocity, 12
+    /// acceleration, 13 excitation force, 17 time, 18 frequency, ...).
+    pub spec_type: Option<i64>,
+    /// Fields 2-4: length, force and temperature unit exponents.
+    pub exponents: [Option<i64>; 3],
+    /// Field 5: axis label (blank if absent).
+    pub label: String,
+    /// Field 6: axis units label (blank if absent).
+    pub unit: String,
+    /// The record's text, for messages.
+    pub raw: String,
+}
+
+fn axis_record(line: &[u8]) -> AxisRecord {
     let fixed = line.len() >= 48 && parse_int_field(columns(line, 0, 10)).is_ok();
+    let raw = free_text(line);
     if fixed {
-        (
-            free_text(columns(line, 26, 46)),
-            free_text(columns(line, 47, 67)),
-        )
+        let int = |from, to| parse_int_field(columns(line, from, to)).ok();
+        AxisRecord {
+            spec_type: int(0, 10),
+            exponents: [int(10, 15), int(15, 20), int(20, 25)],
+            label: free_text(columns(line, 26, 46)),
+            unit: free_text(columns(line, 47, 67)),
+            raw,
+        }
     } else {
-        let t = free_text(line);
-        let tokens: Vec<&str> = t.split_ascii_whitespace().collect();
-        (
-            tokens.get(4).copied().unwrap_or("").to_string(),
-            tokens.get(5).copied().unwrap_or("").to_string(),
-        )
+        let tokens: Vec<&str> = raw.split_ascii_whitespace().collect();
+        let int = |i: usize| tokens.get(i).and_then(|t| t.parse::<i64>().ok());
+        AxisRecord {
+            spec_type: int(0),
+            exponents: [int(1), int(2), int(3)],
+            label: tokens.get(4).copied().unwrap_or("").to_string(),
+            unit: tokens.get(5).copied().unwrap_or("").to_string(),
+            raw: raw.clone(),
+        }
     }
 }
 
-fn meaningful(s: &str) -> Option<&str> {
+pub(crate) fn meaningful(s: &str) -> Option<&str> {
     let s = s.trim();
     if s.is_empty() || s.eq_ignore_ascii_case("NONE") {
         None
@@ -545,11 +640,56 @@ struct Dataset {
     channel: Channel,
 }
 
+/// One dataset 58 as stored: its header records and the numbers of record 12
+/// (ASCII or binary), not yet interpreted.
+pub(crate) struct RawDataset58 {
+    /// 1-based position of the dataset in the file.
+    pub index: usize,
+    /// Lines of records 1-11.
+    pub record_lines: [usize; 11],
+    /// Whether record 12 is binary (58b).
+    pub binary: bool,
+    /// ID lines 1-5 (free text, trimmed).
+    pub id: [String; 5],
+    pub r6: Rec6,
+    pub r7: Rec7,
+    /// Records 8 (abscissa), 9 (ordinate numerator), 10 (ordinate
+    /// denominator), 11 (z axis).
+    pub axes: [AxisRecord; 4],
+    /// Record 12 in file order: per point the abscissa (uneven spacing
+    /// only), then the ordinate (real, or real and imaginary parts).
+    pub values: Vec<f64>,
+    /// How precisely the abscissa values were printed (uneven ASCII).
+    pub x_model: PrintModel,
+    /// First line of record 12.
+    pub data_line: usize,
+    /// `(first value index, line)` of every ASCII data line.
+    pub line_starts: Vec<(usize, usize)>,
+}
+
+impl RawDataset58 {
+    /// Numbers stored per point: abscissa (uneven) plus 1 (real) or 2
+    /// (complex) ordinate values.
+    pub fn per_point(&self) -> usize {
+        per_point(&self.r7)
+    }
+}
+
+fn per_point(r7: &Rec7) -> usize {
+    let ordinate = if r7.ord_type == 5 || r7.ord_type == 6 {
+        2
+    } else {
+        1
+    };
+    ordinate + usize::from(!r7.even)
+}
+
 /// Widths of the fixed fields of a data line, cycled.
 fn data_widths(ord_type: i64, even: bool) -> &'static [usize] {
     match (ord_type, even) {
-        (4, true) => &[20],
+        (4 | 6, true) => &[20],
         (4, false) => &[13, 20],
+        (6, false) => &[13, 20, 20],
         _ => &[13],
     }
 }
@@ -583,12 +723,16 @@ fn data_tokens<'l>(line: &'l str, widths: &[usize]) -> Vec<&'l str> {
     out
 }
 
-fn read_dataset58(
+/// Reads one dataset 58 whose dataset number line (`header_line`) has just
+/// been read: records 1-11, checked against `expect`, and record 12 as
+/// numbers, up to and including the closing `-1`.
+pub(crate) fn read_raw58(
     ctx: &Ctx,
     cur: &mut Cursor,
     header_line: usize,
     binary: Option<BinaryHeader>,
-) -> Result<Dataset, RecordError> {
+    expect: Expect,
+) -> Result<RawDataset58, RecordError> {
     if let Some(b) = &binary
         && b.ascii_lines != 11
     {
@@ -619,31 +763,11 @@ fn read_dataset58(
             }
         }
     }
-    let id1 = free_text(rec[0].1);
-    let id5 = free_text(rec[4].1);
-    let r6 = record6(ctx, rec[5].0, rec[5].1)?;
-    debug_assert_eq!(r6.func_type, 1);
+    let r6 = record6(ctx, rec[5].0, rec[5].1, expect)?;
     let (rec7_line, rec7_bytes) = rec[6];
-    let r7 = record7(ctx, rec7_line, rec7_bytes)?;
-    let (_, x_units) = labels(rec[7].1);
-    let scale = abscissa_scale(&x_units).ok_or_else(|| {
-        ctx.bad_field(
-            rec[7].0,
-            "record 8 field 6 (abscissa units label)",
-            x_units.as_bytes(),
-            "not a time unit (s, ms, us or NONE)",
-        )
-    })?;
-    let (_, num_units) = labels(rec[8].1);
-    let (_, den_units) = labels(rec[9].1);
-    let unit = match (meaningful(&num_units), meaningful(&den_units)) {
-        (Some(n), Some(d)) if d != "1" => Some(format!("{n}/{d}")),
-        (Some(n), _) => Some(n.to_string()),
-        (None, Some(d)) if d != "1" => Some(format!("1/{d}")),
-        (None, _) => None,
-    };
+    let r7 = record7(ctx, rec7_line, rec7_bytes, expect, r6.func_type)?;
 
-    let per_sample: u64 = if r7.even { 1 } else { 2 };
+    let per_sample = per_point(&r7) as u64;
     let n_values = r7.count.checked_mul(per_sample);
     let mut values: Vec<f64>;
     let mut x_model = PrintModel::exact();
@@ -682,18 +806,23 @@ fn read_dataset58(
                     ));
                 }
             };
-            let width: u64 = if r7.ord_type == 2 { 4 } else { 8 };
+            let width: u64 = if r7.ord_type == 2 || r7.ord_type == 5 {
+                4
+            } else {
+                8
+            };
             let expected = n_values.and_then(|n| n.checked_mul(width));
-            // pyuff (2.x) declares count*8 bytes for uneven real data but
-            // writes abscissa and ordinate (twice that). Accept exactly that
-            // case, and only if the closing delimiter is where the full
-            // data ends: then the file cannot be read any other way.
-            let pyuff_uneven = !r7.even
-                && expected == b.bytes.checked_mul(2)
+            // pyuff (2.x) declares count*8 bytes whatever it writes: for
+            // uneven or complex data it writes 2 or 3 numbers per point
+            // (abscissa, real, imaginary). Accept exactly that case, and
+            // only if the closing delimiter is where the full data ends:
+            // then the file cannot be read any other way.
+            let pyuff_quirk = per_sample > 1
+                && expected == b.bytes.checked_mul(per_sample)
                 && expected
                     .and_then(|e| usize::try_from(e).ok())
                     .is_some_and(|e| cur.delimiter_at(e));
-            if expected != Some(b.bytes) && !pyuff_uneven {
+            if expected != Some(b.bytes) && !pyuff_quirk {
                 return Err(ctx.err(
                     ctx.at(header_line, "binary header field 6 (number of bytes)"),
                     Problem::UffByteCountMismatch {
@@ -705,18 +834,22 @@ fn read_dataset58(
                 ));
             }
             let available = cur.remaining();
-            let payload = usize::try_from(if pyuff_uneven { b.bytes * 2 } else { b.bytes })
-                .ok()
-                .and_then(|n| cur.take(n))
-                .ok_or_else(|| {
-                    ctx.truncated(
-                        data_line,
-                        format!(
-                            "inside the binary data: {} bytes declared, {available} present",
-                            b.bytes
-                        ),
-                    )
-                })?;
+            let payload = usize::try_from(if pyuff_quirk {
+                b.bytes * per_sample
+            } else {
+                b.bytes
+            })
+            .ok()
+            .and_then(|n| cur.take(n))
+            .ok_or_else(|| {
+                ctx.truncated(
+                    data_line,
+                    format!(
+                        "inside the binary data: {} bytes declared, {available} present",
+                        b.bytes
+                    ),
+                )
+            })?;
             values = Vec::with_capacity(payload.len() / width as usize);
             for (k, chunk) in payload.chunks_exact(width as usize).enumerate() {
                 let v = if width == 4 {
@@ -795,7 +928,7 @@ fn read_dataset58(
                             },
                         )
                     })?;
-                    if !r7.even && values.len().is_multiple_of(2) {
+                    if !r7.even && values.len().is_multiple_of(per_sample as usize) {
                         x_model.observe(numfmt::printed_precision(tok));
                     }
                     values.push(v);
@@ -814,10 +947,65 @@ fn read_dataset58(
         }
     }
 
+    let record_lines: [usize; 11] = std::array::from_fn(|k| rec[k].0);
+    Ok(RawDataset58 {
+        index: ctx.dataset,
+        record_lines,
+        binary: binary.is_some(),
+        id: std::array::from_fn(|k| free_text(rec[k].1)),
+        axes: std::array::from_fn(|k| axis_record(rec[7 + k].1)),
+        r6,
+        r7,
+        values,
+        x_model,
+        data_line,
+        line_starts,
+    })
+}
+
+/// A dataset 58 read as a time response (function type 1, real ordinates).
+fn read_dataset58(
+    ctx: &Ctx,
+    cur: &mut Cursor,
+    header_line: usize,
+    binary: Option<BinaryHeader>,
+) -> Result<Dataset, RecordError> {
+    let raw = read_raw58(ctx, cur, header_line, binary, Expect::TimeRecord)?;
+    let RawDataset58 {
+        record_lines,
+        binary,
+        id,
+        r6,
+        r7,
+        axes,
+        values,
+        x_model,
+        data_line,
+        line_starts,
+        ..
+    } = raw;
+    let rec7_line = record_lines[6];
+    let x_units = &axes[0].unit;
+    let scale = abscissa_scale(x_units).ok_or_else(|| {
+        ctx.bad_field(
+            record_lines[7],
+            "record 8 field 6 (abscissa units label)",
+            x_units.as_bytes(),
+            "not a time unit (s, ms, us or NONE)",
+        )
+    })?;
+    let unit = match (meaningful(&axes[1].unit), meaningful(&axes[2].unit)) {
+        (Some(n), Some(d)) if d != "1" => Some(format!("{n}/{d}")),
+        (Some(n), _) => Some(n.to_string()),
+        (None, Some(d)) if d != "1" => Some(format!("1/{d}")),
+        (None, _) => None,
+    };
+    let [id1, _, _, _, id5] = &id;
+
     // Abscissa.
     let (start, dt, ys) = if r7.even {
         let (mut start, mut dt) = (r7.x_min * scale, r7.dx * scale);
-        if let Some((tag_dt, tag_start)) = read_tag(&id5) {
+        if let Some((tag_dt, tag_start)) = read_tag(id5) {
             // Use the exact values only if they agree with record 7 to its
             // printed precision (a program that edited record 7 and kept
             // the ID lines must not be overridden).
@@ -842,23 +1030,23 @@ fn read_dataset58(
         (xs[0], dt, ys)
     };
 
-    let direction = r6.direction as i32;
-    let name = match meaningful(&id1) {
+    let direction = r6.response_direction as i32;
+    let name = match meaningful(id1) {
         Some(id) => id.to_string(),
-        None => format!("{}:{}", r6.node, direction_label(direction)),
+        None => format!("{}:{}", r6.response_node, direction_label(direction)),
     };
     Ok(Dataset {
         index: ctx.dataset,
         rec7_line,
-        binary: binary.is_some(),
+        binary,
         start,
         dt,
         channel: Channel {
             name,
             unit,
-            node: Some(r6.node),
+            node: Some(r6.response_node),
             direction: Some(direction),
-            id_line: meaningful(&id1).map(str::to_string),
+            id_line: meaningful(id1).map(str::to_string),
             values: ys,
             lines: (!line_starts.is_empty()).then_some(SampleLines::Values {
                 starts: line_starts,
@@ -869,20 +1057,29 @@ fn read_dataset58(
     })
 }
 
-/// Parses a UFF file held in memory; `path` is used in messages only.
-pub fn parse_uff58(
-    bytes: &[u8],
+/// Walks the datasets of a UFF file: for each, after its delimiter and
+/// dataset number line, calls `visit(ctx, cursor, number, number line,
+/// binary header)`, which either reads the dataset through its closing
+/// `-1` and returns `true`, or returns `false` without reading, and the
+/// dataset is skipped. Returns the number of datasets and the numbers of
+/// the skipped ones, in file order.
+pub(crate) fn scan_datasets<'a>(
+    bytes: &'a [u8],
     path: &Path,
-    opts: &ReadOptions,
-) -> Result<RecordFile, RecordError> {
-    opts.validate()?;
+    mut visit: impl FnMut(
+        &Ctx<'_>,
+        &mut Cursor<'a>,
+        u32,
+        usize,
+        Option<BinaryHeader>,
+    ) -> Result<bool, RecordError>,
+) -> Result<(usize, Vec<u32>), RecordError> {
     let body = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let mut cur = Cursor {
         data: body,
         pos: 0,
         line: 1,
     };
-    let mut datasets: Vec<Dataset> = Vec::new();
     let mut other_types: Vec<u32> = Vec::new();
     let mut index = 0;
     while let Some((n, l)) = cur.next_nonblank() {
@@ -913,8 +1110,7 @@ pub fn parse_uff58(
         } else {
             None
         };
-        if number == 58 {
-            datasets.push(read_dataset58(&ctx, &mut cur, hn, bin)?);
+        if visit(&ctx, &mut cur, number, hn, bin)? {
             continue;
         }
         // Any other dataset is skipped.
@@ -960,6 +1156,24 @@ pub fn parse_uff58(
             },
         }
     }
+    Ok((index, other_types))
+}
+
+/// Parses a UFF file held in memory; `path` is used in messages only.
+pub fn parse_uff58(
+    bytes: &[u8],
+    path: &Path,
+    opts: &ReadOptions,
+) -> Result<RecordFile, RecordError> {
+    opts.validate()?;
+    let mut datasets: Vec<Dataset> = Vec::new();
+    let (index, other_types) = scan_datasets(bytes, path, |ctx, cur, number, hn, bin| {
+        if number != 58 {
+            return Ok(false);
+        }
+        datasets.push(read_dataset58(ctx, cur, hn, bin)?);
+        Ok(true)
+    })?;
     if datasets.is_empty() {
         let at = Location::default();
         let problem = if index == 0 {

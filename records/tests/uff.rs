@@ -460,7 +460,8 @@ fn unsupported_function_type() {
     assert_eq!(
         msg,
         "hit.uff: dataset 1, line 8, record 6 field 1 (function type): function type 4 \
-         (frequency response function) is not supported; only 1 (time response) is"
+         (frequency response function) is not supported; only 1 (time response) is \
+         (this is an FRF file: read it as FRFs)"
     );
 }
 
