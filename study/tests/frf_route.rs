@@ -1,0 +1,129 @@
+//! The FRF route of the harness against the time route: simulated hits ->
+//! FRFs averaged across the hits -> pLSCF, LSFD, MKR, scored like the time
+//! route, on the same campaigns (`route = "both"`).
+
+use std::path::Path;
+
+use sim::{Model, NoiseSettings};
+use study::LoadedScenario;
+use study::experiment::{Routes, run_trial};
+use study::score::rel_fro;
+
+fn scenario(name: &str) -> LoadedScenario {
+    LoadedScenario::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../scenarios")
+            .join(name),
+    )
+    .unwrap()
+}
+
+/// Worst relative errors of f and xi over the modes, relative Frobenius
+/// errors of M, K and the MKR damping.
+#[derive(Debug, Clone, Copy)]
+struct Errors {
+    f: f64,
+    xi: f64,
+    m: f64,
+    k: f64,
+    damping_mkr: f64,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn errors(
+    frequencies_hz: &[f64],
+    damping_ratios: &[f64],
+    mass: &nalgebra::DMatrix<f64>,
+    stiffness: &nalgebra::DMatrix<f64>,
+    damping_mkr: &nalgebra::DMatrix<f64>,
+    model: &Model,
+) -> Errors {
+    let modal = model.modal().unwrap();
+    let n = model.dofs();
+    assert_eq!(frequencies_hz.len(), n, "every structural mode is found");
+    let worst = |a: &[f64], b: &[f64]| {
+        (0..n)
+            .map(|j| (a[j] / b[j] - 1.0).abs())
+            .fold(0.0, f64::max)
+    };
+    Errors {
+        f: worst(frequencies_hz, &modal.frequencies_hz),
+        xi: worst(damping_ratios, &modal.damping_ratios),
+        m: rel_fro(mass, &model.mass),
+        k: rel_fro(stiffness, &model.stiffness),
+        damping_mkr: rel_fro(damping_mkr, &model.damping),
+    }
+}
+
+/// Both routes on the campaign of `seed` at `noise` (fraction of each
+/// channel's RMS): (time, FRF).
+fn both_routes(s: &LoadedScenario, noise: f64, seed: u64) -> (Errors, Errors) {
+    let sc = &s.scenario;
+    let simulator = sc.simulator(s.model.clone()).unwrap();
+    let identifier = sc.identifier();
+    let frf = sc.frf_route();
+    let trial = run_trial(
+        &simulator,
+        Routes {
+            time: Some(&identifier),
+            refiner: None,
+            frf: Some(&frf),
+        },
+        &NoiseSettings {
+            fraction: noise,
+            ..Default::default()
+        },
+        seed,
+    );
+    let t = trial.identification.unwrap().unwrap();
+    let f = trial.frf.unwrap().unwrap();
+    (
+        errors(
+            &t.frequencies_hz,
+            &t.damping_ratios,
+            &t.mass,
+            &t.stiffness,
+            &t.damping_mkr,
+            &s.model,
+        ),
+        errors(
+            &f.frequencies_hz,
+            &f.damping_ratios,
+            &f.mass,
+            &f.stiffness,
+            &f.damping_mkr,
+            &s.model,
+        ),
+    )
+}
+
+#[test]
+fn noise_free_frf_route_recovers_the_truth_like_the_time_route() {
+    for name in ["paper-case1.toml", "frame-three-storey.toml"] {
+        let (time, frf) = both_routes(&scenario(name), 0.0, 1);
+        // The tolerances of the time route's noise-free round trip of
+        // analyzer records (tests/sim_roundtrip.rs, the issue's: f 0.01 %,
+        // xi 1 %, M and K 0.1 %, MKR damping 1 %), for both routes on the
+        // same campaign. Measured (paper case 1 / three storeys): time f
+        // 1.5e-8 / 6.3e-9, xi 1.9e-6 / 5.4e-6, M 1.6e-5 / 1.6e-5, K 2.0e-5
+        // / 1.4e-5, damping 9.1e-4 / 1.2e-3; FRF f 1.9e-8 / 1.9e-8, xi
+        // 8.1e-7 / 1.3e-6, M 2.9e-5 / 3.9e-5, K 2.4e-5 / 3.6e-5, damping
+        // 2.7e-3 / 3.0e-3. What the FRF route leaves is the records' end
+        // under the exponential window (1e-3 of a tail of a few %) and the
+        // residual terms' fit of the out-of-band modes.
+        for (route, e) in [("time", time), ("FRF", frf)] {
+            assert!(
+                e.f < 1e-4 && e.xi < 1e-2 && e.m < 1e-3 && e.k < 1e-3 && e.damping_mkr < 1e-2,
+                "{name}, {route} route: {e:?}"
+            );
+        }
+        // And the FRF route is not far behind the time route: within 5x on
+        // M and K (measured 1.2x to 2.6x) and on the damping (3.0x, 2.6x).
+        assert!(
+            frf.m < 5.0 * time.m
+                && frf.k < 5.0 * time.k
+                && frf.damping_mkr < 5.0 * time.damping_mkr,
+            "{name}: time {time:?}, FRF {frf:?}"
+        );
+    }
+}
