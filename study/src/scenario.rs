@@ -839,4 +839,92 @@ peak_n = 10.0
             "case.toml: damping.alpha: must be a finite number >= 0, got -0.1"
         );
     }
+
+    #[test]
+    fn route_keys_load_and_are_checked() {
+        let s = load_text(MINIMAL).unwrap();
+        assert_eq!(s.scenario.identification.route, RouteSetting::Time);
+        assert_eq!(s.scenario.identification.frf, FrfSettings::default());
+        // A time-route scenario serializes as it did before the keys
+        // existed (the golden sweep files stay byte-identical).
+        let json = serde_json::to_string(&s.scenario.identification).unwrap();
+        assert!(!json.contains("route") && !json.contains("frf"), "{json}");
+
+        let both = format!(
+            "{MINIMAL}\n[identification]\nroute = \"both\"\n[identification.frf]\nestimator = \"Hv\"\nband_hz = [0.5, 20.0]\nexponential_end_amplitude = 1.0\nforce_window = {{ before_peak_s = 0.01, after_peak_s = 0.02, taper_s = 0.005 }}\n"
+        );
+        let s = load_text(&both).unwrap();
+        let id = &s.scenario.identification;
+        assert_eq!(id.route, RouteSetting::Both);
+        assert_eq!(id.frf.estimator, ident::frf::estimate::Estimator::Hv);
+        assert_eq!(s.scenario.frf_band_hz(), (0.5, 20.0));
+        let route = s.scenario.frf_route();
+        assert_eq!(route.estimation.band_hz, Some((0.5, 20.0)));
+        // End amplitude 1: no exponential window.
+        assert!(matches!(
+            route.estimation.averaging,
+            ident::frf::estimate::Averaging::Hits(h)
+                if h.exponential_window.is_none() && h.force_window.is_some()
+        ));
+        // The plan round-trips through JSON with the keys.
+        let json = serde_json::to_string(&s.scenario).unwrap();
+        assert_eq!(serde_json::from_str::<Scenario>(&json).unwrap(), s.scenario);
+
+        // Default band: 0 Hz to the analyzer's passband, fs / 2.56.
+        let s = load_text(&MINIMAL.replace(
+            "[campaign]",
+            "[identification]\nroute = \"frf\"\n[campaign]",
+        ))
+        .unwrap();
+        assert_eq!(
+            s.scenario.frf_band_hz(),
+            (0.0, s.scenario.campaign.sampling.sample_rate_hz / 2.56)
+        );
+
+        for (edit, message) in [
+            (
+                "route = \"frf\"\nrefine = true",
+                "case.toml: identification.refine: the refinement starts from the time route's estimate; set route = \"both\" (or \"time\"), or refine = false",
+            ),
+            (
+                "route = \"both\"\n[identification.frf]\nband_hz = [0.0, 40.0]",
+                "case.toml: identification.frf.band_hz: must be [low, high] with 0 <= low < high <= 32 Hz (Nyquist), got [0, 40]",
+            ),
+            (
+                "route = \"both\"\n[identification.frf]\nexponential_end_amplitude = 0.0",
+                "case.toml: identification.frf.exponential_end_amplitude: must be in (0, 1] (1: no window), got 0",
+            ),
+            (
+                "route = \"both\"\n[identification.frf]\nforce_window = { before_peak_s = -1.0, after_peak_s = 0.02, taper_s = 0.0 }",
+                "case.toml: identification.frf.force_window.before_peak_s: must be a finite number of seconds >= 0, got -1",
+            ),
+        ] {
+            let text = MINIMAL.replace(
+                "[campaign]",
+                &format!("[identification]\n{edit}\n[campaign]"),
+            );
+            assert_eq!(load_text(&text).unwrap_err().to_string(), message, "{edit}");
+        }
+        for (edit, needle) in [
+            ("route = \"frequency\"", "unknown variant `frequency`"),
+            (
+                "[identification.frf]\nestimator = \"h1\"",
+                "unknown variant `h1`",
+            ),
+            (
+                "[identification.frf]\nwindow = 0.1",
+                "unknown field `window`",
+            ),
+        ] {
+            let text = MINIMAL.replace(
+                "[campaign]",
+                &format!("[identification]\n{edit}\n[campaign]"),
+            );
+            let msg = load_text(&text).unwrap_err().to_string();
+            assert!(
+                msg.contains(needle) && msg.contains("line"),
+                "{edit}: {msg}"
+            );
+        }
+    }
 }

@@ -213,3 +213,95 @@ fn with_noise_the_routes_agree_within_their_error_bars() {
         }
     }
 }
+
+#[test]
+fn both_routes_in_shards_merge_to_the_bytes_of_one_run() {
+    use study::sweep::{Shard, execute, merge};
+    let plan = comparison_plan(&[0.0, 0.02], 3);
+    let path = Path::new("scenarios/frf-vs-time.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let whole = dir.path().join("whole");
+    execute(path, &plan, &whole, None, 1, &|| {}).unwrap();
+    let shards: Vec<_> = (1..=3)
+        .map(|index| {
+            let out = dir.path().join(format!("shard-{index}"));
+            execute(
+                path,
+                &plan,
+                &out,
+                Some(Shard { index, count: 3 }),
+                2,
+                &|| {},
+            )
+            .unwrap();
+            out
+        })
+        .collect();
+    let merged = dir.path().join("merged");
+    let parts: Vec<&Path> = shards.iter().map(|p| p.as_path()).collect();
+    merge(&parts, &merged).unwrap();
+    for file in [
+        "trials.csv",
+        "summary.json",
+        "sweep.json",
+        "representative.json",
+    ] {
+        let read = |d: &Path| std::fs::read(d.join(file)).unwrap();
+        assert!(read(&whole) == read(&merged), "{file} differs");
+    }
+    // What was compared holds both routes' scores of every trial.
+    let csv = std::fs::read_to_string(whole.join("trials.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    for column in [
+        "mass_err",
+        "frf_mass_err",
+        "frf_damping_mkr_12_err",
+        "time_failed",
+        "frf_failed",
+    ] {
+        assert!(header.contains(&column), "{column}");
+    }
+    assert_eq!(csv.lines().filter(|l| l.contains(",ok,")).count(), 6);
+}
+
+#[test]
+fn a_failing_frf_route_leaves_the_time_route_scored() {
+    // A band below the first mode (2.7 Hz): the FRF route cannot find the
+    // two modes, the time route identifies as always.
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios/frf-vs-time.toml"),
+    )
+    .unwrap()
+    .replace("band_hz = [0.0, 25.0]", "band_hz = [0.0, 2.0]");
+    let loaded = LoadedScenario::from_text(&text, Path::new("low-band.toml")).unwrap();
+    let plan = study::sweep::Plan::new(&loaded, Some(&[0.01]), Some(2), None).unwrap();
+    let truth = study::sweep::plan_truth(&plan).unwrap();
+    let rows = study::sweep::run(&plan, &truth, None, 1, &|| {}).unwrap();
+    let keys = plan.score_keys();
+    let at = |k: ScoreKey| keys.iter().position(|&x| x == k).unwrap();
+    for r in &rows {
+        let Outcome::Ok { scores, note } = &r.outcome else {
+            panic!("the time route identified: {:?}", r.outcome);
+        };
+        let (reason, message) = note.as_ref().expect("the FRF route's failure is noted");
+        assert!(reason.starts_with("FRF route: "), "{reason}");
+        assert!(
+            message.starts_with("FRF route: FRF identification: "),
+            "{message}"
+        );
+        assert!(scores[at(ScoreKey::Frf(FrfScore::Matrix(MatrixEstimate::Mass)))].is_nan());
+        assert_eq!(
+            scores[at(ScoreKey::RouteFailed(study::score::Route::Frf))],
+            1.0
+        );
+        assert_eq!(
+            scores[at(ScoreKey::RouteFailed(study::score::Route::Time))],
+            0.0
+        );
+        // 1 % noise: M within 1 % (measured below 1e-3 in the other tests).
+        assert!(scores[at(ScoreKey::Matrix(MatrixEstimate::Mass))] < 1e-2);
+    }
+    let summary = study::sweep::summarize(&plan, &truth, &keys, &rows);
+    assert_eq!(summary.levels[0].failures, 0);
+    assert_eq!(summary.levels[0].refine_failures.values().sum::<usize>(), 2);
+}
