@@ -70,7 +70,7 @@ footer { margin-top: 3rem; color: var(--muted); font-size: .8rem; }
   a { color: inherit; text-decoration: none; }
   article.study + article.study { break-before: page; }
   h2, h3, h4 { break-after: avoid; page-break-after: avoid; }
-  figure.chart, .figure-row, table, tr, .efficiency, .damping-comparison { break-inside: avoid; page-break-inside: avoid; }
+  figure.chart, .figure-row, table, tr, .efficiency, .routes, .damping-comparison { break-inside: avoid; page-break-inside: avoid; }
   .table-wrap { overflow: visible; }
   table { font-size: 8pt; }
   th, td { padding: .1rem .35rem; }
@@ -453,6 +453,7 @@ fn accuracy(out: &mut String, sid: &str, acc: &Accuracy) -> Result<(), ReportErr
     if acc.panels.is_empty() {
         out.push_str("<p class=\"missing\">No Monte Carlo results in this study.</p>\n");
         efficiency(out, acc);
+        routes(out, acc);
         out.push_str("</section>\n");
         return Ok(());
     }
@@ -592,6 +593,7 @@ fn accuracy(out: &mut String, sid: &str, acc: &Accuracy) -> Result<(), ReportErr
 
     failures(out, sid, acc, &x, size)?;
     efficiency(out, acc);
+    routes(out, acc);
     out.push_str("</section>\n");
     Ok(())
 }
@@ -849,6 +851,48 @@ fn efficiency(out: &mut String, acc: &Accuracy) {
                 }
             }
         }
+        out.push_str("</tr>\n");
+    }
+    out.push_str("</tbody>\n</table></div>\n</div>\n");
+}
+
+/// The time and FRF routes side by side: one row per noise level and
+/// matrix, median and RMS relative error and efficiency of each route, and
+/// the ratio of their mean square errors.
+fn routes(out: &mut String, acc: &Accuracy) {
+    if acc.routes.is_empty() {
+        return;
+    }
+    out.push_str("<div class=\"routes\">\n<h4>Time and FRF routes</h4>\n<p class=\"lede\">Both routes identify the same simulated campaigns: the time route from the records (OKID, ERA/DC, MKR), the FRF route from FRFs averaged across the hits (pLSCF, LSFD, MKR). Relative Frobenius errors over the trials in which each route identified; efficiency is the Cramér–Rao bound over the RMS error; the last column is the FRF route's mean square error over the time route's (above 1: the FRF route is worse).</p>\n");
+    out.push_str("<div class=\"table-wrap\"><table class=\"routes\">\n<thead><tr><th scope=\"col\">Noise</th><th scope=\"col\">Quantity</th>");
+    for route in ["time", "FRF"] {
+        for col in ["trials", "median", "RMS", "efficiency"] {
+            w!(out, "<th scope=\"col\" class=\"num\">{route} {col}</th>");
+        }
+    }
+    out.push_str("<th scope=\"col\" class=\"num\">MSE FRF / time</th></tr></thead>\n<tbody>\n");
+    let cell = |out: &mut String, v: f64| {
+        if v.is_finite() {
+            w!(out, "<td class=\"num\">{}</td>", sig(v, 3));
+        } else {
+            w!(out, "<td class=\"num\">{MISSING}</td>");
+        }
+    };
+    for r in &acc.routes {
+        w!(
+            out,
+            "<tr data-noise=\"{}\"><th scope=\"row\">{}</th><th scope=\"row\">{}</th>",
+            r.noise_level,
+            escape(&level_label(r.noise_level)),
+            escape(&r.quantity)
+        );
+        for e in [&r.time, &r.frf] {
+            w!(out, "<td class=\"num\">{}</td>", e.trials);
+            cell(out, e.median);
+            cell(out, e.rms);
+            cell(out, e.efficiency);
+        }
+        cell(out, (r.frf.rms / r.time.rms).powi(2));
         out.push_str("</tr>\n");
     }
     out.push_str("</tbody>\n</table></div>\n</div>\n");

@@ -41,7 +41,8 @@
 //!   comparison); `failure-rate`;
 //! - tables: `table.setup`, `table.comparison[data-table]` whose error cells
 //!   carry `data-rel-error` (full precision, or `none`), `table.failures`
-//!   (`data-panel`), `table.efficiency`.
+//!   (`data-panel`), `table.efficiency`, `table.routes` (the time and FRF
+//!   routes side by side; rows carry `data-noise`).
 //!
 //! # Example
 //!
@@ -79,6 +80,7 @@
 //!             quantities: vec![quantity],
 //!         }],
 //!         efficiency: Vec::new(),
+//!         routes: Vec::new(),
 //!     },
 //! };
 //! let report = Report {
@@ -122,8 +124,8 @@ use std::path::Path;
 pub use error::ReportError;
 pub use model::{
     Accuracy, CampaignReport, ComparisonRow, ComparisonTable, EfficiencyRow, FailureCount, Frf,
-    ModeShape, Panel, Quantity, Report, Representative, Scale, SetupRow, Stability,
-    StabilizationPoint, Study, ValueRow, ValueTable,
+    ModeShape, Panel, Quantity, Report, Representative, RouteErrors, RouteRow, Scale, SetupRow,
+    Stability, StabilizationPoint, Study, ValueRow, ValueTable,
 };
 
 /// Renders the report as one self-contained HTML document.

@@ -300,6 +300,43 @@ pub struct Accuracy {
     /// Efficiency of the estimators where a Cramér–Rao bound is known; may
     /// be empty.
     pub efficiency: Vec<EfficiencyRow>,
+    /// Added field. The time and FRF identification routes side by side, on
+    /// the same simulated campaigns (first panel, every noise level); empty
+    /// when the study ran one route.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub routes: Vec<RouteRow>,
+}
+
+/// One matrix at one noise level as the time route and the FRF route
+/// recovered it from the same simulated campaigns.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct RouteRow {
+    /// The noise level, a fraction of the channel RMS.
+    #[serde(deserialize_with = "nullable::f64")]
+    pub noise_level: f64,
+    /// What is estimated, e.g. "mass matrix".
+    pub quantity: String,
+    /// The time route (OKID, ERA/DC, MKR).
+    pub time: RouteErrors,
+    /// The FRF route (FRFs, pLSCF, LSFD, MKR).
+    pub frf: RouteErrors,
+}
+
+/// The relative Frobenius errors of one route's estimate of a matrix over
+/// the trials in which that route identified.
+#[derive(Serialize, Deserialize, Debug, Clone)]
+pub struct RouteErrors {
+    /// Trials in which the route identified (the statistics are over them).
+    pub trials: usize,
+    /// Median relative error.
+    #[serde(deserialize_with = "nullable::f64")]
+    pub median: f64,
+    /// Root mean square of the relative errors.
+    #[serde(deserialize_with = "nullable::f64")]
+    pub rms: f64,
+    /// Cramér–Rao bound over `rms` (1 = efficient); NaN without a bound.
+    #[serde(deserialize_with = "nullable::f64")]
+    pub efficiency: f64,
 }
 
 /// The sweep over noise levels at one value of the second axis (the only

@@ -7,8 +7,8 @@ mod common;
 use common::{Rng, parse, sel, text};
 use reports::{
     Accuracy, ComparisonRow, ComparisonTable, EfficiencyRow, FailureCount, Frf, ModeShape, Panel,
-    Quantity, Report, ReportError, Representative, Scale, SetupRow, Stability, StabilizationPoint,
-    Study,
+    Quantity, Report, ReportError, Representative, RouteErrors, RouteRow, Scale, SetupRow,
+    Stability, StabilizationPoint, Study,
 };
 
 fn bare_study(name: &str) -> Study {
@@ -22,6 +22,7 @@ fn bare_study(name: &str) -> Study {
             axis_name: None,
             panels: vec![],
             efficiency: vec![],
+            routes: vec![],
         },
     }
 }
@@ -480,6 +481,23 @@ fn random_report(seed: u64) -> Report {
                             estimator: string(&mut rng),
                             quantity: string(&mut rng),
                             efficiency: value(&mut rng),
+                        })
+                        .collect(),
+                    routes: (0..rng.below(3))
+                        .map(|_| {
+                            let mut errors = || RouteErrors {
+                                trials: rng.below(30),
+                                median: value(&mut rng),
+                                rms: value(&mut rng),
+                                efficiency: value(&mut rng),
+                            };
+                            let (time, frf) = (errors(), errors());
+                            RouteRow {
+                                noise_level: value(&mut rng),
+                                quantity: string(&mut rng),
+                                time,
+                                frf,
+                            }
                         })
                         .collect(),
                 },

@@ -1,4 +1,5 @@
-//! Tables: identified against truth with relative errors, efficiency.
+//! Tables: identified against truth with relative errors, efficiency, the
+//! time and FRF routes side by side.
 
 mod common;
 
@@ -118,6 +119,64 @@ fn efficiency_table_pivots_noise_levels_into_columns() {
             assert!((shown - e.efficiency).abs() <= 5e-3 * e.efficiency);
         }
     }
+}
+
+#[test]
+fn route_table_shows_both_routes_per_level() {
+    let mut report = common::report();
+    let errors = |trials, median, rms, efficiency| reports::RouteErrors {
+        trials,
+        median,
+        rms,
+        efficiency,
+    };
+    report.studies[0].accuracy.routes = vec![
+        reports::RouteRow {
+            noise_level: 0.0,
+            quantity: "mass matrix".into(),
+            time: errors(4, 2e-6, 3e-6, f64::NAN),
+            frf: errors(4, 4e-5, 5e-5, f64::NAN),
+        },
+        reports::RouteRow {
+            noise_level: 0.01,
+            quantity: "mass matrix".into(),
+            time: errors(20, 1e-3, 2e-3, 0.5),
+            frf: errors(19, 2e-3, 4e-3, 0.25),
+        },
+    ];
+    let doc = parse(&reports::render(&report).unwrap());
+    let table = doc
+        .select(&sel("article#study-1 table.routes"))
+        .next()
+        .expect("the route table");
+    let header: Vec<String> = table.select(&sel("thead th")).map(text).collect();
+    // Noise, quantity, 4 columns per route, the MSE ratio.
+    assert_eq!(header.len(), 2 + 2 * 4 + 1, "{header:?}");
+    let rows: Vec<Vec<String>> = table
+        .select(&sel("tbody tr"))
+        .map(|tr| tr.select(&sel("th, td")).map(text).collect())
+        .collect();
+    assert_eq!(rows.len(), 2);
+    assert_eq!(rows[1][0], "1 %");
+    assert_eq!(rows[1][1], "mass matrix");
+    let numbers = |cells: &[String]| -> Vec<f64> {
+        cells.iter().map(|c| c.parse::<f64>().unwrap()).collect()
+    };
+    // Shown to 3 significant digits, exact for these values; the last
+    // column is the MSE ratio (4e-3 / 2e-3)^2 = 4.
+    assert_eq!(
+        numbers(&rows[1][2..]),
+        [20.0, 1e-3, 2e-3, 0.5, 19.0, 2e-3, 4e-3, 0.25, 4.0]
+    );
+    // No bound at zero noise: the efficiency cells say so.
+    assert_eq!(rows[0][5], rows[0][9]);
+    assert!(rows[0][5].parse::<f64>().is_err(), "{:?}", rows[0]);
+    // Other studies ran one route: no table.
+    assert!(
+        doc.select(&sel("article#study-2 table.routes"))
+            .next()
+            .is_none()
+    );
 }
 
 /// A style rule: enclosing at-rule (or ""), selector, declarations as

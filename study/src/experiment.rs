@@ -1,7 +1,9 @@
-//! One Monte Carlo trial: simulate a campaign, identify it (and refine
-//! it), and the Cramér–Rao bound of a scenario; the scores are in
-//! [`crate::score`].
+//! One Monte Carlo trial: simulate a campaign, identify it by the time
+//! route (and refine it) and/or the FRF route ([`FrfRoute`]), and the
+//! Cramér–Rao bound of a scenario; the scores are in [`crate::score`].
 
+use ident::frf::FrfIdentification;
+use ident::frf::estimate::FrfParams;
 use ident::refine::{Refinement, Refiner, SecondOrder};
 use ident::{Identification, Identifier, RefineError};
 use nalgebra::DMatrix;
@@ -40,41 +42,116 @@ pub fn noise_at(base: &NoiseSettings, level: f64) -> NoiseSettings {
     }
 }
 
+/// The FRF route: FRFs estimated from the hits of a campaign, then pLSCF,
+/// LSFD and MKR. The exponential window's time constant, known once the
+/// records' length is, goes from the estimate to the identifier.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrfRoute {
+    /// FRF estimation (estimator, averaging across hits, windows, band).
+    pub estimation: FrfParams,
+    /// pLSCF, LSFD and MKR (its `exponential_tau_s` is replaced by the
+    /// estimate's).
+    pub identifier: ident::frf::FrfIdentifier,
+}
+
+/// Why the FRF route failed. The messages are self-contained (the error of
+/// `ident` is kept as a field, not chained).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum FrfRouteError {
+    /// The FRFs could not be estimated from the records.
+    #[error("FRF estimation: {error}")]
+    Estimate {
+        /// The estimator's error (names the record, channel or line).
+        error: ident::frf::estimate::FrfEstimateError,
+    },
+    /// The FRFs could not be identified.
+    #[error("FRF identification: {error}")]
+    Identify {
+        /// The identifier's error.
+        error: ident::frf::FrfIdentError,
+    },
+}
+
+impl FrfRoute {
+    /// Estimates the FRFs of `records` (forces and accelerations sampled
+    /// every `dt_s` seconds) and identifies M, K and damping from them.
+    pub fn identify(
+        &self,
+        records: &[ident::Record],
+        dt_s: f64,
+    ) -> Result<FrfIdentification, FrfRouteError> {
+        let estimate = self
+            .estimation
+            .estimate(records, dt_s)
+            .map_err(|error| FrfRouteError::Estimate { error })?;
+        let identifier = ident::frf::FrfIdentifier {
+            exponential_tau_s: estimate.windows.exponential_tau_s,
+            ..self.identifier.clone()
+        };
+        identifier
+            .identify(&estimate.frf)
+            .map_err(|error| FrfRouteError::Identify { error })
+    }
+}
+
+/// The routes a trial runs.
+#[derive(Debug, Clone, Copy)]
+pub struct Routes<'a> {
+    /// The time route's identifier, if it runs.
+    pub time: Option<&'a Identifier>,
+    /// The refiner of the time route's estimate, if it runs.
+    pub refiner: Option<&'a Refiner>,
+    /// The FRF route, if it runs.
+    pub frf: Option<&'a FrfRoute>,
+}
+
 /// What one trial produced.
 #[derive(Debug)]
 pub struct TrialResult {
     /// The simulated campaign.
     pub campaign: Campaign,
-    /// The identification of all its hits.
-    pub identification: Result<Identification, ident::Error>,
+    /// The time route's identification of all its hits (`None` if that
+    /// route did not run).
+    pub identification: Option<Result<Identification, ident::Error>>,
     /// With a refiner: its result, started from MKR's M and K with the
     /// Rayleigh damping.
     pub refinement: Option<Result<Refinement, RefineError>>,
+    /// The FRF route's identification of the same hits (`None` if that
+    /// route did not run).
+    pub frf: Option<Result<FrfIdentification, FrfRouteError>>,
 }
 
-/// Simulates and identifies one campaign (and refines it with `refiner`).
+/// Simulates one campaign and identifies it by the routes set (refining
+/// the time route's estimate with `routes.refiner`); every route sees the
+/// same records.
 pub fn run_trial(
     simulator: &Simulator,
-    identifier: &Identifier,
-    refiner: Option<&Refiner>,
+    routes: Routes<'_>,
     noise: &NoiseSettings,
     seed: u64,
 ) -> TrialResult {
     let campaign = simulator.simulate_with_noise(seed, noise);
     let data = campaign.to_ident();
-    let identification = identifier.identify(&data.records, data.dt_s);
-    let refinement = match (&identification, refiner) {
-        (Ok(id), Some(r)) => Some(r.refine(
+    let identification = routes
+        .time
+        .map(|identifier| identifier.identify(&data.records, data.dt_s));
+    let refinement = match (&identification, routes.refiner) {
+        (Some(Ok(id)), Some(r)) => Some(r.refine(
             &data.records,
             data.dt_s,
             &SecondOrder::from_identification(id),
         )),
         _ => None,
     };
+    let frf = routes
+        .frf
+        .map(|route| route.identify(&data.records, data.dt_s));
     TrialResult {
         campaign,
         identification,
         refinement,
+        frf,
     }
 }
 
@@ -98,7 +175,8 @@ pub struct Bound {
 
 impl Bound {
     /// The bound that applies to a score, if any: every estimator of a
-    /// quantity (ERA/MKR, Rayleigh, refined) shares the quantity's bound.
+    /// quantity (ERA/MKR, Rayleigh, refined, either route) shares the
+    /// quantity's bound.
     pub fn for_score(&self, key: ScoreKey) -> Option<f64> {
         match key {
             ScoreKey::Frequency { mode, .. } => self.frequencies.get(mode - 1).copied(),
@@ -108,6 +186,7 @@ impl Bound {
                 Quantity::Stiffness => self.stiffness,
                 Quantity::Damping => self.damping,
             }),
+            ScoreKey::Frf(s) => self.for_score(s.time_key()),
             _ => None,
         }
     }

@@ -10,7 +10,7 @@ use crate::error::StudyError;
 use crate::fsutil::read_json;
 use crate::representative::RepresentativeFile;
 use crate::scenario::{Scenario, StructureSpec};
-use crate::score::{MatrixEstimate, ScoreKey};
+use crate::score::{FrfScore, MatrixEstimate, ScoreKey};
 use crate::sweep::Summary;
 use crate::sweep::stats::Stats;
 
@@ -281,19 +281,55 @@ fn setup_rows(summary: &Summary) -> Result<Vec<rm::SetupRow>, sim::SimError> {
         format!("noise {} %", sig(100.0 * n.fraction, 3)),
     ));
     rows.push(row("Trials per level", plan.trials.to_string()));
-    rows.push(row(
-        "Identification",
-        format!(
-            "OKID -> ERA/DC -> MKR, intersample {}, model order {}, observer order {}",
-            s.intersample(),
-            s.identification
-                .order
-                .map_or("automatic".into(), |o| o.to_string()),
-            s.identification
-                .observer_order
-                .map_or("automatic".into(), |o| o.to_string())
-        ),
-    ));
+    if s.identification.route.time() {
+        rows.push(row(
+            "Identification",
+            format!(
+                "OKID -> ERA/DC -> MKR, intersample {}, model order {}, observer order {}",
+                s.intersample(),
+                s.identification
+                    .order
+                    .map_or("automatic".into(), |o| o.to_string()),
+                s.identification
+                    .observer_order
+                    .map_or("automatic".into(), |o| o.to_string())
+            ),
+        ));
+    }
+    if s.identification.route.frf() {
+        let f = &s.identification.frf;
+        let (low, high) = s.frf_band_hz();
+        rows.push(row(
+            "Identification, FRF route",
+            format!(
+                "{} across the hits, {}-{} Hz, {}{} -> pLSCF -> LSFD -> MKR{}",
+                f.estimator,
+                sig(low, 4),
+                sig(high, 4),
+                if f.exponential_end_amplitude < 1.0 {
+                    format!(
+                        "exponential window to {} at the record end (its damping taken out of the poles)",
+                        sig(f.exponential_end_amplitude, 3)
+                    )
+                } else {
+                    "no exponential window".into()
+                },
+                f.force_window
+                    .map(|w| format!(
+                        ", force window {} ms before to {} ms after the peak, tapers {} ms",
+                        sig(w.before_peak_s * 1e3, 3),
+                        sig(w.after_peak_s * 1e3, 3),
+                        sig(w.taper_s * 1e3, 3)
+                    ))
+                    .unwrap_or_default(),
+                if s.identification.route.time() {
+                    ", on the same campaigns as the time route"
+                } else {
+                    ""
+                }
+            ),
+        ));
+    }
     if let Some(axis) = &plan.axis {
         rows.push(row(
             "Second axis",
@@ -353,6 +389,10 @@ fn describe(key: ScoreKey) -> Option<(String, String, String)> {
             "ratio".into(),
             "diagnostics".into(),
         ),
+        ScoreKey::Frf(score) => {
+            let (label, unit, group) = describe(score.time_key())?;
+            (format!("{label}, FRF route"), unit, group)
+        }
         _ => return None,
     })
 }
@@ -429,7 +469,59 @@ fn accuracy(summary: &Summary) -> rm::Accuracy {
         axis_name: plan.axis.as_ref().map(|a| a.setting.name().to_string()),
         panels,
         efficiency: efficiency_rows(summary),
+        routes: route_rows(summary),
     }
+}
+
+/// Root mean square of the values behind `s` from their mean and sample
+/// standard deviation: `sqrt(mean^2 + std^2 (n - 1) / n)`.
+fn rms(s: &Stats) -> f64 {
+    match (s.n, s.mean, s.std) {
+        (0, ..) | (_, None, _) => f64::NAN,
+        (1, Some(mean), _) => mean.abs(),
+        (n, Some(mean), Some(std)) => (mean * mean + std * std * (n - 1) as f64 / n as f64).sqrt(),
+        (_, Some(_), None) => f64::NAN,
+    }
+}
+
+/// The time and FRF routes side by side (sweeps that ran both): M, K and
+/// the MKR and Rayleigh damping at every noise level of the first panel.
+fn route_rows(summary: &Summary) -> Vec<rm::RouteRow> {
+    let routes = summary.plan.scenario.identification.route;
+    if !(routes.time() && routes.frf()) {
+        return Vec::new();
+    }
+    let first_axis = summary.levels.first().map(|l| l.axis_value.clone());
+    let matrices = [
+        (MatrixEstimate::Mass, "mass matrix"),
+        (MatrixEstimate::Stiffness, "stiffness matrix"),
+        (MatrixEstimate::DampingMkr, "damping matrix, MKR"),
+        (MatrixEstimate::DampingRayleigh, "damping matrix, Rayleigh"),
+    ];
+    summary
+        .levels
+        .iter()
+        .filter(|l| Some(l.axis_value.clone()) == first_axis)
+        .flat_map(|l| {
+            matrices.iter().map(move |&(m, quantity)| {
+                let errors = |key: ScoreKey| {
+                    let stats = l.scores.get(&key);
+                    rm::RouteErrors {
+                        trials: stats.map_or(0, |s| s.n),
+                        median: stats.and_then(|s| s.median).unwrap_or(f64::NAN),
+                        rms: stats.map_or(f64::NAN, rms),
+                        efficiency: l.efficiency.get(&key).copied().unwrap_or(f64::NAN),
+                    }
+                };
+                rm::RouteRow {
+                    noise_level: l.noise,
+                    quantity: quantity.into(),
+                    time: errors(ScoreKey::Matrix(m)),
+                    frf: errors(ScoreKey::Frf(FrfScore::Matrix(m))),
+                }
+            })
+        })
+        .collect()
 }
 
 /// The estimator and quantity a score column measures, for the efficiency
@@ -442,6 +534,18 @@ fn estimator_of(key: ScoreKey) -> Option<(&'static str, String)> {
         }
         ScoreKey::DampingRatio { mode, refined } => {
             Some((era(refined), format!("damping ratio {mode}")))
+        }
+        ScoreKey::Frf(score) => {
+            let (estimator, quantity) = estimator_of(score.time_key())?;
+            Some((
+                match estimator {
+                    "ERA/DC" => "pLSCF/LSFD (FRF)",
+                    "MKR" => "MKR (FRF)",
+                    "Rayleigh" => "Rayleigh (FRF)",
+                    other => other,
+                },
+                quantity,
+            ))
         }
         ScoreKey::Matrix(m) => Some(match m {
             MatrixEstimate::Mass => ("MKR", "mass matrix".into()),

@@ -15,13 +15,19 @@
 //! | `Consistency` | `consistency` | MKR's `\|\|W W^T\|\| / \|\|W L W^T\|\|` |
 //! | `ModelOrder`, `Warnings` | `model_order`, `warnings` | what the identifier did |
 //! | `RefineFailed`, `RefineIterations` | `refine_failed`, `refine_iterations` | 0/1 and the refinement's iterations |
+//! | `Frf(s)` | `frf_` + the text of [`FrfScore::time_key`]: `frf_f1_err`, `frf_mass_err`, `frf_damping_mkr_12_err`, `frf_consistency`, ... | the same measure on the FRF route ([`Route::Frf`]); `frf_model_order` is the pLSCF order |
+//! | `RouteFailed(route)` | `time_failed`, `frf_failed` | 0/1: that route's identification failed (only in sweeps that run both routes) |
 //!
-//! Modes are numbered from 1 in ascending frequency.
+//! The keys without a route name (`f1_err`, `mass_err`, ...) are the time
+//! route's ([`Route::Time`]): sweeps of the time route alone keep the
+//! columns they always had. Modes are numbered from 1 in ascending
+//! frequency.
 
 use std::cmp::Ordering;
 use std::fmt;
 use std::str::FromStr;
 
+use ident::frf::FrfIdentification;
 use ident::refine::Refinement;
 use ident::{Identification, RefineError};
 use nalgebra::DMatrix;
@@ -107,6 +113,138 @@ pub enum Quantity {
     Damping,
 }
 
+/// The identification route an estimate comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Route {
+    /// The time records: OKID, ERA/DC, MKR ([`ident::Identifier`]).
+    Time,
+    /// FRFs estimated across the hits ([`ident::frf::estimate`]), then
+    /// pLSCF, LSFD and MKR ([`ident::frf::FrfIdentifier`]).
+    Frf,
+}
+
+impl Route {
+    /// Both routes, time first (the column order of the scores).
+    pub const ALL: [Route; 2] = [Route::Time, Route::Frf];
+
+    /// The word used in score texts and reports (`time`, `frf`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Route::Time => "time",
+            Route::Frf => "frf",
+        }
+    }
+
+    /// The name shown in reports ("time", "FRF").
+    pub fn label(self) -> &'static str {
+        match self {
+            Route::Time => "time",
+            Route::Frf => "FRF",
+        }
+    }
+}
+
+impl fmt::Display for Route {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// An identification score of the FRF route: the same measures as the time
+/// route's ERA/DC and MKR scores (never the refinement's), against the same
+/// truth. Its text is `frf_` followed by the text of [`FrfScore::time_key`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum FrfScore {
+    /// |relative error| of natural frequency `mode` (1-based).
+    Frequency {
+        /// Mode, 1-based, ascending frequency.
+        mode: usize,
+    },
+    /// |relative error| of damping ratio `mode` (1-based).
+    DampingRatio {
+        /// Mode, 1-based.
+        mode: usize,
+    },
+    /// 1 - MAC of mode shape `mode` against the truth.
+    MacDefect {
+        /// Mode, 1-based.
+        mode: usize,
+    },
+    /// Relative Frobenius error of a matrix (one of
+    /// [`MatrixEstimate::IDENTIFIED`]).
+    Matrix(MatrixEstimate),
+    /// Diagonal-scaled signed error of entry (`row`, `col`), 1-based,
+    /// `row <= col`, of one of [`MatrixEstimate::IDENTIFIED`].
+    Entry {
+        /// The matrix.
+        matrix: MatrixEstimate,
+        /// Row, 1-based.
+        row: usize,
+        /// Column, 1-based.
+        col: usize,
+    },
+    /// MKR's second-order consistency.
+    Consistency,
+    /// The pLSCF model order used.
+    ModelOrder,
+    /// Number of identification warnings.
+    Warnings,
+}
+
+impl FrfScore {
+    /// The time route's key of the same measure.
+    pub fn time_key(self) -> ScoreKey {
+        match self {
+            FrfScore::Frequency { mode } => ScoreKey::Frequency {
+                mode,
+                refined: false,
+            },
+            FrfScore::DampingRatio { mode } => ScoreKey::DampingRatio {
+                mode,
+                refined: false,
+            },
+            FrfScore::MacDefect { mode } => ScoreKey::MacDefect {
+                mode,
+                refined: false,
+            },
+            FrfScore::Matrix(m) => ScoreKey::Matrix(m),
+            FrfScore::Entry { matrix, row, col } => ScoreKey::Entry { matrix, row, col },
+            FrfScore::Consistency => ScoreKey::Consistency,
+            FrfScore::ModelOrder => ScoreKey::ModelOrder,
+            FrfScore::Warnings => ScoreKey::Warnings,
+        }
+    }
+
+    /// The FRF route's score of the measure of a time-route key; `None`
+    /// for the refinement's keys and the route-level ones, which have no
+    /// FRF counterpart.
+    pub fn of_time_key(key: ScoreKey) -> Option<FrfScore> {
+        Some(match key {
+            ScoreKey::Frequency {
+                mode,
+                refined: false,
+            } => FrfScore::Frequency { mode },
+            ScoreKey::DampingRatio {
+                mode,
+                refined: false,
+            } => FrfScore::DampingRatio { mode },
+            ScoreKey::MacDefect {
+                mode,
+                refined: false,
+            } => FrfScore::MacDefect { mode },
+            ScoreKey::Matrix(m) if !m.is_refined() => FrfScore::Matrix(m),
+            ScoreKey::Entry { matrix, row, col } if !matrix.is_refined() => {
+                FrfScore::Entry { matrix, row, col }
+            }
+            ScoreKey::Consistency => FrfScore::Consistency,
+            ScoreKey::ModelOrder => FrfScore::ModelOrder,
+            ScoreKey::Warnings => FrfScore::Warnings,
+            _ => return None,
+        })
+    }
+}
+
 /// One score column (see the module docs for the text forms).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ScoreKey {
@@ -154,6 +292,11 @@ pub enum ScoreKey {
     RefineFailed,
     /// Iterations of the refinement.
     RefineIterations,
+    /// A score of the FRF route.
+    Frf(FrfScore),
+    /// 1 if the route's identification failed, else 0 (sweeps that run
+    /// both routes).
+    RouteFailed(Route),
 }
 
 impl ScoreKey {
@@ -193,6 +336,39 @@ impl ScoreKey {
         keys
     }
 
+    /// Every score of a trial that runs the routes `time` and `frf` for
+    /// `dofs` floors, in column order: the time route's scores as
+    /// [`ScoreKey::all`] gives them (with the refinement's if `refine`),
+    /// then the FRF route's in the same order, then with both routes
+    /// [`ScoreKey::RouteFailed`] of each.
+    pub fn of_routes(dofs: usize, refine: bool, time: bool, frf: bool) -> Vec<ScoreKey> {
+        let mut keys = Vec::new();
+        if time {
+            keys = ScoreKey::all(dofs, refine);
+        }
+        if frf {
+            keys.extend(
+                ScoreKey::all(dofs, false)
+                    .into_iter()
+                    .filter_map(FrfScore::of_time_key)
+                    .map(ScoreKey::Frf),
+            );
+        }
+        if time && frf {
+            keys.extend(Route::ALL.map(ScoreKey::RouteFailed));
+        }
+        keys
+    }
+
+    /// The route whose identification the score measures (the refinement
+    /// starts from the time route's).
+    pub fn route(self) -> Route {
+        match self {
+            ScoreKey::Frf(_) | ScoreKey::RouteFailed(Route::Frf) => Route::Frf,
+            _ => Route::Time,
+        }
+    }
+
     /// Whether the score belongs to the refinement.
     pub fn is_refined(self) -> bool {
         match self {
@@ -203,7 +379,11 @@ impl ScoreKey {
             | ScoreKey::StandardError(m)
             | ScoreKey::Entry { matrix: m, .. } => m.is_refined(),
             ScoreKey::RefineFailed | ScoreKey::RefineIterations => true,
-            ScoreKey::Consistency | ScoreKey::ModelOrder | ScoreKey::Warnings => false,
+            ScoreKey::Consistency
+            | ScoreKey::ModelOrder
+            | ScoreKey::Warnings
+            | ScoreKey::Frf(_)
+            | ScoreKey::RouteFailed(_) => false,
         }
     }
 }
@@ -232,9 +412,14 @@ impl fmt::Display for ScoreKey {
             ScoreKey::Warnings => f.write_str("warnings"),
             ScoreKey::RefineFailed => f.write_str("refine_failed"),
             ScoreKey::RefineIterations => f.write_str("refine_iterations"),
+            ScoreKey::Frf(s) => write!(f, "{FRF_PREFIX}{}", s.time_key()),
+            ScoreKey::RouteFailed(route) => write!(f, "{route}_failed"),
         }
     }
 }
+
+/// What the texts of the FRF route's scores start with.
+const FRF_PREFIX: &str = "frf_";
 
 /// A text that is not a score key.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -255,9 +440,19 @@ impl FromStr for ScoreKey {
             ScoreKey::Warnings,
             ScoreKey::RefineFailed,
             ScoreKey::RefineIterations,
+            ScoreKey::RouteFailed(Route::Time),
+            ScoreKey::RouteFailed(Route::Frf),
         ];
         if let Some(k) = fixed.into_iter().find(|k| k.to_string() == s) {
             return Ok(k);
+        }
+        if let Some(rest) = s.strip_prefix(FRF_PREFIX) {
+            return rest
+                .parse::<ScoreKey>()
+                .ok()
+                .and_then(FrfScore::of_time_key)
+                .map(ScoreKey::Frf)
+                .ok_or_else(unknown);
         }
         let mode = |s: &str, prefix: &str, suffix: &str| -> Option<(usize, bool)> {
             let rest = s.strip_prefix(prefix)?.strip_suffix(suffix)?;
@@ -365,7 +560,7 @@ pub fn score(
     refined: Option<&Result<Refinement, RefineError>>,
     truth: &TrueModel,
 ) -> Vec<f64> {
-    let mut v = score_identification(id, truth);
+    let mut v = score_identification(id.into(), truth);
     match refined {
         None => {}
         Some(Ok(r)) => v.extend(score_refinement(r, truth)),
@@ -436,7 +631,69 @@ fn score_refinement(r: &Refinement, truth: &TrueModel) -> Vec<f64> {
     v
 }
 
-fn score_identification(id: &Identification, truth: &TrueModel) -> Vec<f64> {
+/// What the scores of an identification read, from either route.
+struct Estimates<'a> {
+    frequencies_hz: &'a [f64],
+    damping_ratios: &'a [f64],
+    mode_shapes: &'a DMatrix<Complex64>,
+    mass: &'a DMatrix<f64>,
+    stiffness: &'a DMatrix<f64>,
+    damping_mkr: &'a DMatrix<f64>,
+    damping_rayleigh: &'a DMatrix<f64>,
+    consistency: f64,
+    model_order: usize,
+    warnings: usize,
+}
+
+impl<'a> From<&'a Identification> for Estimates<'a> {
+    fn from(id: &'a Identification) -> Self {
+        Estimates {
+            frequencies_hz: &id.frequencies_hz,
+            damping_ratios: &id.damping_ratios,
+            mode_shapes: &id.mode_shapes,
+            mass: &id.mass,
+            stiffness: &id.stiffness,
+            damping_mkr: &id.damping_mkr,
+            damping_rayleigh: &id.damping_rayleigh,
+            consistency: id.consistency,
+            model_order: id.model_order,
+            warnings: id.warnings.len(),
+        }
+    }
+}
+
+impl<'a> From<&'a FrfIdentification> for Estimates<'a> {
+    fn from(id: &'a FrfIdentification) -> Self {
+        Estimates {
+            frequencies_hz: &id.frequencies_hz,
+            damping_ratios: &id.damping_ratios,
+            mode_shapes: &id.mode_shapes,
+            mass: &id.mass,
+            stiffness: &id.stiffness,
+            damping_mkr: &id.damping_mkr,
+            damping_rayleigh: &id.damping_rayleigh,
+            consistency: id.consistency,
+            model_order: id.order,
+            warnings: id.warnings.len(),
+        }
+    }
+}
+
+/// Scores of an identification of the FRF route against the truth,
+/// aligned with its [`ScoreKey::Frf`] keys of [`ScoreKey::of_routes`]
+/// (the measures of the time route's identification scores, in their
+/// order).
+pub fn score_frf(id: &FrfIdentification, truth: &TrueModel) -> Vec<f64> {
+    score_identification(id.into(), truth)
+}
+
+/// NaN for every score of a route that was not identified: `count`
+/// values.
+pub fn missing(count: usize) -> Vec<f64> {
+    vec![f64::NAN; count]
+}
+
+fn score_identification(id: Estimates<'_>, truth: &TrueModel) -> Vec<f64> {
     let n = truth.dofs();
     assert_eq!(
         id.frequencies_hz.len(),
@@ -455,12 +712,7 @@ fn score_identification(id: &Identification, truth: &TrueModel) -> Vec<f64> {
         let shape: Vec<Complex64> = id.mode_shapes.column(j).iter().copied().collect();
         v.push(1.0 - mac(&shape, &t.mode_shapes[j]));
     }
-    let estimates = [
-        &id.mass,
-        &id.stiffness,
-        &id.damping_mkr,
-        &id.damping_rayleigh,
-    ];
+    let estimates = [id.mass, id.stiffness, id.damping_mkr, id.damping_rayleigh];
     let references = [
         &truth.model.mass,
         &truth.model.stiffness,
@@ -475,7 +727,7 @@ fn score_identification(id: &Identification, truth: &TrueModel) -> Vec<f64> {
     }
     v.push(id.consistency);
     v.push(id.model_order as f64);
-    v.push(id.warnings.len() as f64);
+    v.push(id.warnings as f64);
     v
 }
 
@@ -507,7 +759,7 @@ mod tests {
     #[test]
     fn every_key_parses_back_from_its_text() {
         for dofs in [1, 2, 3, 12] {
-            let keys = ScoreKey::all(dofs, true);
+            let keys = ScoreKey::of_routes(dofs, true, true, true);
             let mut texts: Vec<String> = keys.iter().map(ToString::to_string).collect();
             for (k, t) in keys.iter().zip(&texts) {
                 assert_eq!(t.parse::<ScoreKey>().unwrap(), *k, "{t}");
@@ -516,6 +768,45 @@ mod tests {
             texts.dedup();
             assert_eq!(texts.len(), keys.len(), "texts are unique at {dofs} DOFs");
         }
+    }
+
+    #[test]
+    fn route_keys() {
+        // The time route alone: the columns sweeps always had.
+        assert_eq!(
+            ScoreKey::of_routes(2, true, true, false),
+            ScoreKey::all(2, true)
+        );
+        // The FRF route: the identification scores, prefixed, same order.
+        let frf = ScoreKey::of_routes(2, true, false, true);
+        let time = ScoreKey::all(2, false);
+        assert_eq!(frf.len(), time.len());
+        for (f, t) in frf.iter().zip(&time) {
+            assert_eq!(f.to_string(), format!("frf_{t}"));
+            assert_eq!(f.route(), Route::Frf);
+            assert!(!f.is_refined());
+        }
+        let both = ScoreKey::of_routes(2, false, true, true);
+        assert_eq!(both.len(), 2 * time.len() + 2);
+        assert_eq!(
+            both[both.len() - 2..]
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>(),
+            ["time_failed", "frf_failed"]
+        );
+        assert_eq!(
+            "frf_damping_mkr_12_err".parse::<ScoreKey>().unwrap(),
+            ScoreKey::Frf(FrfScore::Entry {
+                matrix: MatrixEstimate::DampingMkr,
+                row: 1,
+                col: 2
+            })
+        );
+        assert_eq!(
+            "frf_f2_err".parse::<ScoreKey>().unwrap(),
+            ScoreKey::Frf(FrfScore::Frequency { mode: 2 })
+        );
     }
 
     #[test]
@@ -555,6 +846,11 @@ mod tests {
             "mass_se",
             "x",
             "mass_1_err",
+            "frf_mass_refined_err",
+            "frf_refine_failed",
+            "frf_frf_mass_err",
+            "frf_time_failed",
+            "route_failed",
         ] {
             assert!(bad.parse::<ScoreKey>().is_err(), "{bad}");
         }

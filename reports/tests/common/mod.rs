@@ -556,6 +556,7 @@ pub fn report_with_samples(samples: usize) -> Report {
             axis_name: None,
             panels: vec![panel(None, &levels, 1.0)],
             efficiency: efficiency(&levels),
+            routes: vec![],
         },
     };
     let study2 = Study {
@@ -571,6 +572,7 @@ pub fn report_with_samples(samples: usize) -> Report {
                 panel(Some("1.09 kg"), &levels, 1.6),
             ],
             efficiency: vec![],
+            routes: vec![],
         },
     };
     let levels3 = vec![0.0, 0.005, 0.01, 0.02, 0.05];
@@ -588,6 +590,7 @@ pub fn report_with_samples(samples: usize) -> Report {
             axis_name: None,
             panels: vec![panel(None, &levels3, 2.0)],
             efficiency: vec![],
+            routes: vec![],
         },
     };
     Report {

@@ -20,10 +20,13 @@ use serde::{Deserialize, Serialize};
 use sim::{Simulator, derive_seed};
 
 use crate::error::StudyError;
-use crate::experiment::{Bound, TrueModel, cramer_rao_bound, noise_at, run_trial};
+use crate::experiment::{
+    Bound, FrfRoute, FrfRouteError, Routes, TrialResult, TrueModel, cramer_rao_bound, noise_at,
+    run_trial,
+};
 use crate::fsutil::{read_json, write_json};
 use crate::scenario::{AxisSetting, AxisValue, Scenario, SweepAxis};
-use crate::score::{MatrixEstimate, ScoreKey, score};
+use crate::score::{MatrixEstimate, Route, ScoreKey, missing, score, score_frf};
 use stats::Stats;
 
 /// What a sweep runs: the scenario (overrides applied), noise levels,
@@ -197,11 +200,15 @@ impl Plan {
             .unwrap_or_default()
     }
 
-    /// The score keys of every trial.
+    /// The score keys of every trial: the time route's, the FRF route's,
+    /// or both ([`ScoreKey::of_routes`]).
     pub fn score_keys(&self) -> Vec<ScoreKey> {
-        ScoreKey::all(
+        let id = &self.scenario.identification;
+        ScoreKey::of_routes(
             self.scenario.structure.dofs(),
-            self.scenario.identification.refine,
+            id.refine,
+            id.route.time(),
+            id.route.frf(),
         )
     }
 
@@ -262,6 +269,31 @@ pub fn failure_reason(e: &ident::Error) -> String {
     .to_string()
 }
 
+/// A short, stable category of a failure of the FRF route.
+pub fn frf_failure_reason(e: &FrfRouteError) -> String {
+    use ident::frf::FrfIdentError as E;
+    match e {
+        FrfRouteError::Estimate { .. } => "FRF estimation failed",
+        FrfRouteError::Identify { error } => match error {
+            E::InvalidParams { .. } => "invalid parameters",
+            E::Frf(_) | E::TooFewLines { .. } | E::Weighting { .. } => "unusable FRFs",
+            E::Numerical { .. } | E::Linalg { .. } => "pLSCF failed",
+            E::LsfdRankDeficient { .. } => "LSFD failed",
+            E::NoStableModes { .. } => "no stable modes",
+            E::ModeCount { .. } | E::ModeNotFound { .. } => "too few modes",
+            E::Mkr(m) => match m {
+                ident::MkrError::NotPositiveDefinite { .. } => "MKR: not positive definite",
+                ident::MkrError::InconsistentPolarity { .. } => "MKR: inconsistent polarity",
+                _ => "MKR failed",
+            },
+            E::Rayleigh(_) => "Rayleigh fit failed",
+            E::NonFiniteResult { .. } => "non-finite result",
+            _ => "identification failed",
+        },
+    }
+    .to_string()
+}
+
 /// A short, stable category of a refinement failure.
 pub fn refine_failure_reason(e: &ident::RefineError) -> String {
     use ident::RefineError as E;
@@ -300,15 +332,14 @@ pub fn run(
                 })
         })
         .collect::<Result<_, _>>()?;
-    let identifiers: Vec<ident::Identifier> = (0..axis_count)
-        .map(|a| plan.scenario_at(a).identifier())
+    let scenarios: Vec<Scenario> = (0..axis_count).map(|a| plan.scenario_at(a)).collect();
+    let identifiers: Vec<ident::Identifier> = scenarios.iter().map(Scenario::identifier).collect();
+    let refiners: Vec<Option<ident::refine::Refiner>> = scenarios
+        .iter()
+        .map(|s| s.identification.refine.then(|| s.refiner()))
         .collect();
-    let refiners: Vec<Option<ident::refine::Refiner>> = (0..axis_count)
-        .map(|a| {
-            let s = plan.scenario_at(a);
-            s.identification.refine.then(|| s.refiner())
-        })
-        .collect();
+    let frf_routes: Vec<FrfRoute> = scenarios.iter().map(Scenario::frf_route).collect();
+    let route = plan.scenario.identification.route;
     let keys = plan.shard_keys(shard);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -318,27 +349,14 @@ pub fn run(
             .map(|&key| {
                 let seed = plan.trial_seed(key);
                 let noise = noise_at(&plan.scenario.campaign.noise, plan.noise_levels[key.noise]);
+                let routes = Routes {
+                    time: route.time().then_some(&identifiers[key.axis]),
+                    refiner: refiners[key.axis].as_ref(),
+                    frf: route.frf().then_some(&frf_routes[key.axis]),
+                };
                 let outcome = catch_unwind(AssertUnwindSafe(|| {
-                    let trial = run_trial(
-                        &simulators[key.axis],
-                        &identifiers[key.axis],
-                        refiners[key.axis].as_ref(),
-                        &noise,
-                        seed,
-                    );
-                    match trial.identification {
-                        Ok(id) => Outcome::Ok {
-                            scores: score(&id, trial.refinement.as_ref(), truth),
-                            note: match &trial.refinement {
-                                Some(Err(e)) => Some((refine_failure_reason(e), e.to_string())),
-                                _ => None,
-                            },
-                        },
-                        Err(e) => Outcome::Failed {
-                            reason: failure_reason(&e),
-                            message: e.to_string(),
-                        },
-                    }
+                    let trial = run_trial(&simulators[key.axis], routes, &noise, seed);
+                    outcome(&trial, plan, truth)
                 }))
                 .unwrap_or_else(|panic| Outcome::Failed {
                     reason: "panic".into(),
@@ -354,6 +372,83 @@ pub fn run(
             .collect::<Vec<_>>()
     });
     Ok(rows)
+}
+
+/// The outcome of a trial, its scores aligned with [`Plan::score_keys`].
+///
+/// One route: `Failed` when it failed, as always. Both routes: `Failed`
+/// when both failed (the reason and message name both); otherwise `Ok`,
+/// the failed route's scores NaN, [`ScoreKey::RouteFailed`] 1 for it, and
+/// its reason (prefixed `time route: ` or `FRF route: `) in the note.
+fn outcome(trial: &TrialResult, plan: &Plan, truth: &TrueModel) -> Outcome {
+    let n = truth.dofs();
+    let refine = plan.scenario.identification.refine;
+    let refine_note = match &trial.refinement {
+        Some(Err(e)) => Some((refine_failure_reason(e), e.to_string())),
+        _ => None,
+    };
+    let time = trial.identification.as_ref().map(|r| match r {
+        Ok(id) => Ok(score(id, trial.refinement.as_ref(), truth)),
+        Err(e) => Err((failure_reason(e), e.to_string())),
+    });
+    let frf = trial.frf.as_ref().map(|r| match r {
+        Ok(id) => Ok(score_frf(id, truth)),
+        Err(e) => Err((frf_failure_reason(e), e.to_string())),
+    });
+    match (time, frf) {
+        (Some(Ok(scores)), None) => Outcome::Ok {
+            scores,
+            note: refine_note,
+        },
+        (None, Some(Ok(scores))) => Outcome::Ok { scores, note: None },
+        (Some(Err((reason, message))), None) | (None, Some(Err((reason, message)))) => {
+            Outcome::Failed { reason, message }
+        }
+        (Some(time), Some(frf)) => {
+            let flags = [time.is_err(), frf.is_err()];
+            let prefixed = |route: Route, (reason, message): (String, String)| {
+                let name = format!("{} route: ", route.label());
+                (name.clone() + &reason, name + &message)
+            };
+            let mut notes = Vec::new();
+            let mut scores = match time {
+                Ok(scores) => {
+                    notes.extend(refine_note);
+                    scores
+                }
+                Err(e) => {
+                    notes.push(prefixed(Route::Time, e));
+                    missing(ScoreKey::of_routes(n, refine, true, false).len())
+                }
+            };
+            match frf {
+                Ok(s) => scores.extend(s),
+                Err(e) => {
+                    notes.push(prefixed(Route::Frf, e));
+                    scores.extend(missing(ScoreKey::of_routes(n, false, false, true).len()));
+                }
+            }
+            scores.extend(flags.map(|failed| if failed { 1.0 } else { 0.0 }));
+            let joined = |pick: fn(&(String, String)) -> &String| {
+                notes
+                    .iter()
+                    .map(pick)
+                    .cloned()
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            };
+            let (reason, message) = (joined(|n| &n.0), joined(|n| &n.1));
+            if flags == [true, true] {
+                Outcome::Failed { reason, message }
+            } else {
+                Outcome::Ok {
+                    scores,
+                    note: (!notes.is_empty()).then_some((reason, message)),
+                }
+            }
+        }
+        (None, None) => unreachable!("a plan runs at least one route"),
+    }
 }
 
 const FIXED_COLUMNS: [&str; 7] = [
@@ -514,7 +609,9 @@ pub struct LevelSummary {
     pub failure_rate: f64,
     /// Failures counted by reason.
     pub failure_reasons: BTreeMap<String, usize>,
-    /// Trials whose identification succeeded but whose refinement failed.
+    /// Trials whose identification succeeded with a note, by reason: the
+    /// refinement failed (`refinement: ...`) or, with both routes, one
+    /// route failed (`time route: ...`, `FRF route: ...`).
     pub refine_failures: BTreeMap<String, usize>,
     /// Statistics of every score over the successful trials.
     pub scores: BTreeMap<ScoreKey, Stats>,
