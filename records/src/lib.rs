@@ -24,6 +24,12 @@
 //!   spectrum against the campaign. A hit that is inconsistent with the
 //!   others is never used silently.
 //! - [`units`] is the one table of unit spellings the readers accept.
+//! - [`frf`] reads and writes measured FRFs (UFF58 function type 4 with
+//!   coherence 6, ASCII and binary; CSV with a header convention; the
+//!   headerless `freq; H1; ...` Python-complex notation), in SI units, and
+//!   collates the pairs of several files into one [`ident::Frf`]
+//!   ([`frf::assemble`]); [`content_kind`] tells time records from FRFs by
+//!   content; [`frf::write_uff55`] writes identified modes as UFF dataset 55.
 //!
 //! # Conventions
 //!
@@ -48,6 +54,24 @@
 //! let campaign = select(&[rec], &[force], None)?;
 //! assert_eq!(campaign.outputs, ["acc1", "acc2"]);
 //! assert_eq!(campaign.records[0].outputs[(0, 2)], -0.3);
+//! # Ok::<(), records::RecordError>(())
+//! ```
+//!
+//! FRFs: the unit in the header converts to SI (1 g = 9.80665 m/s^2), and
+//! the driving point is found from node and direction.
+//!
+//! ```
+//! use records::{AssembleOptions, ContentKind, FrfReadOptions, content_kind, frf, parse_frf};
+//! use std::path::Path;
+//!
+//! let text = "frequency_hz,re H(acc@2:+X/hammer@2:+X) [g/N],im H(acc@2:+X/hammer@2:+X) [g/N]\n\
+//!             10,0.5,-1.0\n20,0.25,-0.5\n";
+//! assert_eq!(content_kind(text.as_bytes()), ContentKind::Frf);
+//! let file = parse_frf(text.as_bytes(), Path::new("h.csv"), &FrfReadOptions::default())?;
+//! assert_eq!(file.pairs[0].values[0].re, 0.5 * 9.80665);
+//! let set = frf::assemble(&[file], &AssembleOptions::default())?;
+//! assert_eq!((set.frf.outputs_count(), set.frf.references_count()), (1, 1));
+//! assert_eq!((set.collocated[0].output, set.collocated[0].input), (0, 0));
 //! # Ok::<(), records::RecordError>(())
 //! ```
 

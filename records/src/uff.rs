@@ -696,7 +696,7 @@ fn data_widths(ord_type: i64, even: bool) -> &'static [usize] {
 
 /// Splits a data line into number texts: at blanks, or by fixed columns if a
 /// blank-separated piece is not a number.
-fn data_tokens<'l>(line: &'l str, widths: &[usize]) -> Vec<&'l str> {
+pub(crate) fn data_tokens<'l>(line: &'l str, widths: &[usize]) -> Vec<&'l str> {
     let blank: Vec<&str> = line.split_ascii_whitespace().collect();
     if blank
         .iter()

@@ -86,9 +86,11 @@
 
 mod assemble;
 mod csv;
+mod uff55;
 mod uff58;
 
 pub use assemble::{AssembleOptions, FrfSet, FrfSetProblem, assemble};
+pub use uff55::{ExportMode, ModeShapeExport, encode_uff55, parse_uff55, read_uff55, write_uff55};
 
 use std::fmt;
 use std::path::{Path, PathBuf};
