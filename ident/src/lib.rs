@@ -10,7 +10,9 @@
 //! refines M, K and damping by maximum likelihood on all hits at once (any symmetric
 //! damping, with standard errors) and gives the Cramér–Rao bound of a campaign.
 //! [`frf::FrfIdentifier`] reaches the same M, K and damping from measured FRFs instead
-//! (pLSCF stabilization diagram, LSFD residues, then MKR and Rayleigh).
+//! (pLSCF stabilization diagram, LSFD residues, then MKR and Rayleigh), and
+//! [`frf::refine`] refines them by maximum likelihood on the FRFs themselves (weights from
+//! the coherence and the number of averages, standard errors).
 //!
 //! # Conventions
 //!

@@ -1047,11 +1047,13 @@ impl FrfRefiner {
         let mut noise = noise;
         let mut noise_updates = 0;
         let estimated = noise.source.estimated();
-        let mut weights;
+        // Residuals for the noise fit: with the weights of the run that produced them, so
+        // that the residual terms are those of that run.
+        let mut weights = robust;
         loop {
             let last = if estimated {
                 let ev = problem
-                    .evaluate(&outcome.theta, &unit, false, true)
+                    .evaluate(&outcome.theta, &weights, false, true)
                     .expect("the optimizer only accepts admissible points");
                 let new =
                     noise.estimate(&problem, ev.residuals.as_ref().expect("kept"), dof_factor);
