@@ -35,8 +35,10 @@ pub enum Command {
     Study(StudyArgs),
     /// Simulate a hammer campaign of a scenario and write its records and truth.
     Simulate(SimulateArgs),
-    /// Identify modal parameters and M, K, R from records or a realization.
+    /// Identify modal parameters and M, K, R from records, FRFs or a realization.
     Identify(IdentifyArgs),
+    /// Estimate FRFs (H1, H2 or Hv) with coherence from hammer or shaker records and write them as UFF58 and CSV.
+    Frf(FrfArgs),
     /// Monte Carlo sweep over noise levels: simulate, identify and score many campaigns.
     Sweep(SweepArgs),
     /// Join the directories of a sharded sweep into what one run gives.
@@ -103,9 +105,23 @@ pub struct SimulateArgs {
     pub force: bool,
 }
 
+/// Which channels of the record files are forces and responses.
+#[derive(Debug, Args)]
+pub struct SelectArgs {
+    /// Input channel(s), comma separated: a name (`force`), `node:dir` (UFF, e.g. `1:+X`), `id:TEXT` or `#k`
+    #[arg(long, default_value = "force")]
+    pub input: String,
+    /// Output channels in DOF order, comma separated (default: every channel but the inputs, in file order)
+    #[arg(long)]
+    pub outputs: Option<String>,
+    /// Sampling rate for records without a time column, Hz
+    #[arg(long)]
+    pub fs: Option<f64>,
+}
+
 #[derive(Debug, Args)]
 pub struct IdentifyArgs {
-    /// Record files, one per hit (CSV or UFF58, detected from the content)
+    /// Record files, one per hit (CSV or UFF58), or FRF files (UFF58 function type 4, FRF CSV); detected from the content
     #[arg(
         required_unless_present = "realization",
         conflicts_with = "realization"
@@ -114,12 +130,9 @@ pub struct IdentifyArgs {
     /// A discrete realization instead of records: JSON with `dt` (or `dt_s`), `A`, `B`, `C`, `D` (arrays of rows)
     #[arg(long)]
     pub realization: Option<PathBuf>,
-    /// Input channel(s), comma separated: a name (`force`), `node:dir` (UFF, e.g. `1:+X`), `id:TEXT` or `#k`
-    #[arg(long, default_value = "force")]
-    pub input: String,
-    /// Output channels in DOF order, comma separated (default: every channel but the inputs, in file order)
-    #[arg(long)]
-    pub outputs: Option<String>,
+    /// Channels and sampling
+    #[command(flatten)]
+    pub select: SelectArgs,
     /// Collocated force/accelerometer pair OUT:IN, zero-based indices among the outputs and inputs or channel names (default: first output with first input)
     #[arg(long)]
     pub collocated: Option<String>,
@@ -138,9 +151,6 @@ pub struct IdentifyArgs {
     /// Intersample assumption: `bandlimited` for analyzer records (impulse invariance), `zoh` for inputs held over each sample (the paper's assumption)
     #[arg(long, default_value_t = Intersample::Bandlimited, value_parser = intersample_parser())]
     pub intersample: Intersample,
-    /// Sampling rate for records without a time column, Hz
-    #[arg(long)]
-    pub fs: Option<f64>,
     /// Write the result as JSON on standard output
     #[arg(long)]
     pub json: bool,
@@ -159,12 +169,106 @@ pub struct IdentifyArgs {
     /// Refine M, K and the damping matrix by maximum likelihood over all hits (records only), with standard errors
     #[arg(long, conflicts_with = "realization")]
     pub refine: bool,
+    /// FRF files without units (headerless `freq; H1; H2; ...` CSV, CSV columns without `[unit]`): the quantity, values in SI
+    #[arg(long, value_parser = ["accelerance", "mobility", "receptance"], help_heading = "FRF files")]
+    pub frf_quantity: Option<String>,
+    /// FRF files without units: the unit of the values, e.g. `g/N` or `(m/s^2)/N` (converted to SI)
+    #[arg(long, help_heading = "FRF files")]
+    pub frf_unit: Option<String>,
+    /// Headerless FRF CSV: the force point, `NAME` or `NAME@NODE:DIR` (e.g. `force@2:+X`); several files may name different references
+    #[arg(long, help_heading = "FRF files")]
+    pub reference: Vec<String>,
+    /// Headerless FRF CSV: the response points, one per FRF column, comma separated (`NAME` or `NAME@NODE:DIR`)
+    #[arg(long, help_heading = "FRF files")]
+    pub responses: Option<String>,
+    /// FRFs measured with an exponential window exp(-t/tau) not stated in the file: its tau in seconds, whose damping is removed
+    #[arg(long, value_name = "TAU_S", help_heading = "FRF files")]
+    pub exponential_tau: Option<f64>,
     /// Also write an HTML page of the identification: data and preprocessing, warnings, hit quality, stabilization diagram, modes in and out of the model, identified values with error bars, measured FRFs and coherence against the identified model
     #[arg(long, conflicts_with = "realization", value_name = "FILE")]
     pub report: Option<PathBuf>,
     /// Parameters of the refinement: symmetric M, K, damping (`full`) or one mass per floor and one spring and dashpot per storey plus ground dashpots (`shear-frame`)
     #[arg(long, default_value_t = ParametrizationSetting::Full, value_parser = parametrization_parser(), requires = "refine")]
     pub parametrization: ParametrizationSetting,
+}
+
+/// FRF estimator of `frameid frf`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum EstimatorArg {
+    /// Gyx Gxx^-1: noise on the responses
+    H1,
+    /// Gyy Gxy^-1: noise on the force
+    H2,
+    /// Total least squares: noise on both
+    Hv,
+}
+
+/// How `frameid frf` forms its averages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum AveragingArg {
+    /// One block per hit for hammer records, Welch segments for continuous ones (as detected)
+    Auto,
+    /// One block per record (hammer hits)
+    Hits,
+    /// Welch segments (continuous records): Hann window, 50 % overlap
+    Welch,
+}
+
+/// File layouts `frameid frf` writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FrfFormatArg {
+    /// `frf.uff`: UFF58 ASCII, function type 4 (FRFs) and 6 (coherence)
+    Uff,
+    /// `frf.uffb`: UFF58b binary, same datasets
+    UffBinary,
+    /// `frf.csv`: frequency_hz, re/im H(response/reference) and coh(...) columns
+    Csv,
+}
+
+#[derive(Debug, Args)]
+pub struct FrfArgs {
+    /// Record files: hammer hits (averaged across hits) or shaker runs (Welch segments)
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// Channels and sampling
+    #[command(flatten)]
+    pub select: SelectArgs,
+    /// Output directory (created if missing): frf.uff and frf.csv by default
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Estimator: h1 (noise on the responses), h2 (noise on the force), hv (both)
+    #[arg(long, value_enum, default_value_t = EstimatorArg::H1)]
+    pub estimator: EstimatorArg,
+    /// Averaging: across hits, Welch segments, or chosen from the detected excitation
+    #[arg(long, value_enum, default_value_t = AveragingArg::Auto)]
+    pub averaging: AveragingArg,
+    /// Welch segment length, samples (default: a power of two giving at least 8 segments)
+    #[arg(long)]
+    pub segment: Option<usize>,
+    /// Force window for hammer hits: the force is kept within S seconds of its peak, with cosine tapers of S seconds
+    #[arg(long, value_name = "S")]
+    pub force_window: Option<f64>,
+    /// Exponential window for hammer hits, as the amplitude left at the end of the record (e.g. 0.01); the damping it adds is written with the FRFs and removed by `frameid identify`
+    #[arg(long, value_name = "END")]
+    pub exponential_window: Option<f64>,
+    /// Keep only the lines inside LOW:HIGH Hz
+    #[arg(long)]
+    pub band: Option<String>,
+    /// Collocated force/accelerometer pair OUT:IN (zero-based or names; default 0:0): the force is written at that accelerometer's node
+    #[arg(long)]
+    pub collocated: Option<String>,
+    /// Layouts written (comma separated)
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "uff,csv")]
+    pub format: Vec<FrfFormatArg>,
+    /// What excites the records (`auto`, `hammer`, `continuous`)
+    #[arg(long, default_value = "auto")]
+    pub excitation: records::quality::Excitation,
+    /// Refuse the campaign if any record fails a check or is inconsistent with the others (default: drop it with a warning)
+    #[arg(long)]
+    pub strict: bool,
+    /// Print what was done as JSON
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Debug, Args)]

@@ -27,6 +27,7 @@ fn main() -> ExitCode {
         Command::Study(args) => commands::study::run(&args, &mut out),
         Command::Simulate(args) => commands::simulate::run(&args, &mut out),
         Command::Identify(args) => commands::identify::run(&args, &mut out),
+        Command::Frf(args) => commands::frf::run(&args, &mut out),
         Command::Sweep(args) => commands::sweep::run(&args, &mut out),
         Command::Merge(args) => commands::sweep::merge(&args, &mut out),
         Command::Report(args) => commands::report::run(&args, &mut out),

@@ -2,6 +2,8 @@
 //! documents of `frameid identify --json` (schema in the README). Nothing
 //! here computes; everything is formatting of library results.
 
+use std::fmt::Write as _;
+
 use ident::refine::Refinement;
 use ident::{Identification, Jackknife};
 use nalgebra::DMatrix;
@@ -102,6 +104,9 @@ pub struct RefinedReport {
     pub converged: bool,
     pub initial_cost: f64,
     pub cost: f64,
+    /// Where the variances of the FRF values came from (FRF route only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise_model: Option<String>,
 }
 
 /// A mode of the refined model with standard errors (delta method).
@@ -116,13 +121,42 @@ pub struct RefinedMode {
 
 impl RefinedReport {
     pub fn new(r: &Refinement) -> Self {
-        let u = &r.uncertainty;
+        let mut report = Self::matrices(&r.mass, &r.stiffness, &r.damping, &r.uncertainty);
+        report.noise_outputs = r.noise.outputs.clone();
+        report.noise_inputs = r.noise.inputs.clone();
+        report.iterations = r.iterations;
+        report.stop = format!("{:?}", r.stop);
+        report.converged = r.stop.converged();
+        report.initial_cost = r.initial_cost;
+        report.cost = r.cost;
+        report
+    }
+
+    /// The refinement of FRFs.
+    pub fn from_frf(r: &ident::frf::refine::FrfRefinement) -> Self {
+        let mut report = Self::matrices(&r.mass, &r.stiffness, &r.damping, &r.uncertainty);
+        report.iterations = r.iterations;
+        report.stop = format!("{:?}", r.stop);
+        report.converged = r.stop.converged();
+        report.initial_cost = r.initial_cost;
+        report.cost = r.cost;
+        report.noise_model = Some(format!("{:?}", r.noise.source));
+        report
+    }
+
+    /// Matrices and modes with their standard errors; the rest empty.
+    fn matrices(
+        mass: &DMatrix<f64>,
+        stiffness: &DMatrix<f64>,
+        damping: &DMatrix<f64>,
+        u: &ident::refine::Uncertainty,
+    ) -> Self {
         RefinedReport {
-            mass: rows(&r.mass),
+            mass: rows(mass),
             mass_std: rows(&u.mass_std),
-            stiffness: rows(&r.stiffness),
+            stiffness: rows(stiffness),
             stiffness_std: rows(&u.stiffness_std),
-            damping: rows(&r.damping),
+            damping: rows(damping),
             damping_std: rows(&u.damping_std),
             modes: u
                 .modes
@@ -135,13 +169,14 @@ impl RefinedReport {
                     mode_shape: m.shape.iter().map(|z| [z.re, z.im]).collect(),
                 })
                 .collect(),
-            noise_outputs: r.noise.outputs.clone(),
-            noise_inputs: r.noise.inputs.clone(),
-            iterations: r.iterations,
-            stop: format!("{:?}", r.stop),
-            converged: r.stop.converged(),
-            initial_cost: r.initial_cost,
-            cost: r.cost,
+            noise_outputs: Vec::new(),
+            noise_inputs: Vec::new(),
+            iterations: 0,
+            stop: String::new(),
+            converged: false,
+            initial_cost: f64::NAN,
+            cost: f64::NAN,
+            noise_model: None,
         }
     }
 
@@ -174,6 +209,9 @@ impl RefinedReport {
             &self.damping,
             Some(&self.damping_std),
         ));
+        if let Some(model) = &self.noise_model {
+            out.push_str(&format!("  noise model of the FRF values: {model}\n"));
+        }
         out.push_str(&format!(
             "  noise std: outputs {}, input {}; {} iterations, stopped on {} (cost {} -> {})\n",
             self.noise_outputs
@@ -712,5 +750,376 @@ mod tests {
         assert_eq!(plus_minus(-425.83, Some(2.4), 5), "-425.8 ± 2.4");
         assert_eq!(plus_minus(630.4392, None, 5), "630.44");
         assert_eq!(plus_minus(3.2283e-5, Some(1.1e-7), 5), "3.2283e-5 ± 1.1e-7");
+    }
+}
+
+/// What `frameid frf` did (`frf.json`, and `--json` on standard output).
+#[derive(Debug, Serialize)]
+pub struct FrfSummary {
+    /// The record files given.
+    pub files: Vec<String>,
+    /// Hits (records) averaged.
+    pub hits_used: usize,
+    /// Files left out (quality or consistency), with the warnings saying why.
+    pub dropped: Vec<String>,
+    /// The excitation the averaging was chosen for (`hammer`, `continuous`).
+    pub excitation: String,
+    /// H1, H2 or Hv.
+    pub estimator: String,
+    /// Averages behind each line.
+    pub averages: usize,
+    /// FFT length, samples.
+    pub block_len: usize,
+    /// Line spacing, Hz.
+    pub resolution_hz: f64,
+    /// Lines written.
+    pub lines: usize,
+    /// First and last line, Hz.
+    pub band_hz: [f64; 2],
+    /// The windows and blocks used.
+    pub windows: ident::frf::estimate::AppliedWindows,
+    /// Time constant of the exponential window, s: its damping
+    /// (`1 / (tau omega)` of critical at `omega`) is in the FRFs and is
+    /// removed by `frameid identify`.
+    pub exponential_tau_s: Option<f64>,
+    /// Whether the hits were checked against a joint model as well as
+    /// against each other.
+    pub model_checks: bool,
+    /// Responses (outputs) and references (forces), in file order.
+    pub outputs: Vec<String>,
+    /// The references.
+    pub references: Vec<String>,
+    /// Lowest coherence of any pair over the lines, and its median.
+    pub coherence_min: f64,
+    /// Median coherence over the lines and pairs.
+    pub coherence_median: f64,
+    /// The files written, in the output directory.
+    pub written: Vec<String>,
+    /// Every warning, naming files and channels.
+    pub warnings: Vec<String>,
+}
+
+impl FrfSummary {
+    /// The summary of an estimate written as `written`.
+    pub fn new(
+        o: &study::frfs::FrfOutcome,
+        files: &[std::path::PathBuf],
+        written: Vec<String>,
+    ) -> Self {
+        let frf = &o.estimate.frf;
+        let mut gamma: Vec<f64> = frf
+            .coherence
+            .iter()
+            .flatten()
+            .flat_map(|g| g.iter().copied())
+            .filter(|g| g.is_finite())
+            .collect();
+        gamma.sort_by(f64::total_cmp);
+        let n = frf.frequency_hz.len();
+        FrfSummary {
+            files: files.iter().map(|f| f.display().to_string()).collect(),
+            hits_used: o.campaign.records.len(),
+            dropped: o
+                .dropped
+                .iter()
+                .map(|&i| {
+                    files
+                        .get(i)
+                        .map_or(format!("#{i}"), |f| f.display().to_string())
+                })
+                .collect(),
+            excitation: o.excitation.label().to_string(),
+            estimator: o.estimate.estimator.to_string(),
+            averages: frf.averages.unwrap_or(0),
+            block_len: o.estimate.windows.block_len,
+            resolution_hz: 1.0 / (o.estimate.windows.block_len as f64 * o.campaign.dt_s),
+            lines: n,
+            band_hz: [
+                frf.frequency_hz.first().copied().unwrap_or(f64::NAN),
+                frf.frequency_hz.last().copied().unwrap_or(f64::NAN),
+            ],
+            windows: o.estimate.windows.clone(),
+            exponential_tau_s: o.estimate.windows.exponential_tau_s,
+            model_checks: o.model_checks,
+            outputs: frf.outputs.clone(),
+            references: frf.references.clone(),
+            coherence_min: gamma.first().copied().unwrap_or(f64::NAN),
+            coherence_median: gamma.get(gamma.len() / 2).copied().unwrap_or(f64::NAN),
+            written,
+            warnings: o.warnings.clone(),
+        }
+    }
+
+    /// Readable text.
+    pub fn human(&self, dir: &std::path::Path) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "FRFs of {} record(s) ({}): {} of {} to {}, {} average(s), {} lines {}-{} Hz every {} Hz",
+            self.hits_used,
+            self.excitation,
+            self.estimator,
+            self.outputs.join(", "),
+            self.references.join(", "),
+            self.averages,
+            self.lines,
+            sig(self.band_hz[0], 5),
+            sig(self.band_hz[1], 5),
+            sig(self.resolution_hz, 5)
+        );
+        if let Some(tau) = self.exponential_tau_s {
+            let _ = writeln!(
+                s,
+                "exponential window: tau = {} s (it adds a damping ratio of 1 / (tau omega), e.g. {} % at 10 Hz; frameid identify removes it: the UFF files state it, a CSV file does not: pass --exponential-tau {} with it)",
+                sig(tau, 4),
+                sig(100.0 / (tau * 2.0 * std::f64::consts::PI * 10.0), 3),
+                tau
+            );
+        }
+        let _ = writeln!(
+            s,
+            "coherence: lowest {}, median {}",
+            sig(self.coherence_min, 3),
+            sig(self.coherence_median, 3)
+        );
+        if !self.dropped.is_empty() {
+            let _ = writeln!(s, "dropped: {}", self.dropped.join(", "));
+        }
+        for w in &self.warnings {
+            let _ = writeln!(s, "warning: {w}");
+        }
+        let _ = writeln!(
+            s,
+            "wrote {} in {}",
+            self.written
+                .iter()
+                .chain(std::iter::once(&"frf.json".to_string()))
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(", "),
+            dir.display()
+        );
+        s
+    }
+}
+
+/// A measurement point of an FRF file.
+#[derive(Debug, Clone, Serialize)]
+pub struct PointReport {
+    pub name: String,
+    pub node: Option<i64>,
+    pub direction: Option<i32>,
+}
+
+/// Where FRFs came from.
+#[derive(Debug, Clone, Serialize)]
+pub struct FrfSource {
+    pub files: Vec<String>,
+    /// `receptance`, `mobility` or `accelerance` (values in SI).
+    pub quantity: String,
+    pub lines: usize,
+    pub band_hz: [f64; 2],
+    pub averages: Option<usize>,
+    pub coherence: bool,
+    /// Responses, in output (DOF) order.
+    pub outputs: Vec<PointReport>,
+    pub references: Vec<PointReport>,
+    pub collocated: Collocated,
+}
+
+/// A pLSCF pole left out of the modal model.
+#[derive(Debug, Clone, Serialize)]
+pub struct RejectedReport {
+    pub frequency_hz: f64,
+    pub damping_ratio: f64,
+    pub reason: String,
+}
+
+/// The JSON document of `frameid identify --json` given FRFs.
+#[derive(Debug, Clone, Serialize)]
+pub struct FrfIdentifyReport {
+    pub frameid_version: String,
+    /// Always `frf`.
+    pub route: String,
+    pub source: FrfSource,
+    /// pLSCF order.
+    pub model_order: usize,
+    pub modes: Vec<ModeReport>,
+    pub out_of_model_modes: Vec<ModeReport>,
+    pub rejected_modes: Vec<RejectedReport>,
+    pub frequencies_hz: Vec<f64>,
+    pub damping_ratios: Vec<f64>,
+    pub rayleigh: RayleighReport,
+    pub mass: Vec<Vec<f64>>,
+    pub stiffness: Vec<Vec<f64>>,
+    pub damping_mkr: Vec<Vec<f64>>,
+    pub damping_rayleigh: Vec<Vec<f64>>,
+    pub consistency: f64,
+    pub polarity_flipped: bool,
+    /// Time constant of an exponential window taken out of the modes, s.
+    pub exponential_tau_s: Option<f64>,
+    /// Coherence per pair and reciprocity between references.
+    pub checks: study::frf_analysis::FrfChecks,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refined: Option<RefinedReport>,
+    pub warnings: Vec<String>,
+}
+
+impl FrfIdentifyReport {
+    pub fn new(a: &study::frf_analysis::FrfAnalysis, source: FrfSource) -> Self {
+        let id = &a.identification;
+        let mode = |j: usize| {
+            let m = &id.modes[j];
+            ModeReport {
+                frequency_hz: m.frequency_hz,
+                damping_ratio: m.damping_ratio,
+                mode_shape: m.shape.iter().map(|z| [z.re, z.im]).collect(),
+                emac: None,
+                emac_output: None,
+                emac_input: None,
+                mpc: m.indicators.mpc,
+                msv: m.indicators.msv,
+                cmi: m.indicators.cmi,
+                structural: m.structural,
+                used: id.mkr_modes.contains(&j),
+            }
+        };
+        FrfIdentifyReport {
+            frameid_version: env!("CARGO_PKG_VERSION").into(),
+            route: "frf".into(),
+            source,
+            model_order: id.order,
+            modes: (0..id.modes.len()).map(mode).collect(),
+            out_of_model_modes: id.out_of_model.iter().map(|&j| mode(j)).collect(),
+            rejected_modes: id
+                .rejected
+                .iter()
+                .map(|r| RejectedReport {
+                    frequency_hz: r.frequency_hz,
+                    damping_ratio: r.damping_ratio,
+                    reason: match r.reason {
+                        ident::frf::RejectReason::LeftPhysicalRange { .. } => {
+                            "left the band or damping range when refined".into()
+                        }
+                        ident::frf::RejectReason::Insignificant { contribution } => {
+                            format!("peak contribution {} of the largest", sig(contribution, 2))
+                        }
+                    },
+                })
+                .collect(),
+            frequencies_hz: id.frequencies_hz.clone(),
+            damping_ratios: id.damping_ratios.clone(),
+            rayleigh: RayleighReport {
+                alpha: id.rayleigh.alpha,
+                beta: id.rayleigh.beta,
+            },
+            mass: rows(&id.mass),
+            stiffness: rows(&id.stiffness),
+            damping_mkr: rows(&id.damping_mkr),
+            damping_rayleigh: rows(&id.damping_rayleigh),
+            consistency: id.consistency,
+            polarity_flipped: id.polarity_flipped,
+            exponential_tau_s: id.exponential_tau_s,
+            checks: a.checks.clone(),
+            refined: a.refinement.as_ref().map(RefinedReport::from_frf),
+            warnings: a.warnings.clone(),
+        }
+    }
+
+    /// Readable tables.
+    pub fn human(&self) -> String {
+        let s = &self.source;
+        let names = |p: &[PointReport]| {
+            p.iter()
+                .map(|p| match (p.node, p.direction) {
+                    (Some(n), Some(d)) => {
+                        format!("{} ({n}:{})", p.name, records::direction_label(d))
+                    }
+                    _ => p.name.clone(),
+                })
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let mut out = format!(
+            "FRFs ({}) from {}: {} lines, {}-{} Hz, {} average(s), coherence {}\nresponses (DOF order): {}; references: {}; collocated: {} / {}\n",
+            s.quantity,
+            s.files.join(", "),
+            s.lines,
+            sig(s.band_hz[0], 5),
+            sig(s.band_hz[1], 5),
+            s.averages.map_or("unknown".to_string(), |n| n.to_string()),
+            if s.coherence { "given" } else { "not given" },
+            names(&s.outputs),
+            names(&s.references),
+            s.outputs
+                .get(s.collocated.output)
+                .map_or("?", |p| p.name.as_str()),
+            s.references
+                .get(s.collocated.input)
+                .map_or("?", |p| p.name.as_str()),
+        );
+        out.push_str(&format!("pLSCF order {}\n\nModes\n", self.model_order));
+        for (i, m) in self.modes.iter().enumerate() {
+            out.push_str(&format!(
+                "  {:>2}  f = {} Hz  xi = {} %  MPC {:.3}{}\n",
+                i + 1,
+                sig(m.frequency_hz, 6),
+                sig(100.0 * m.damping_ratio, 4),
+                m.mpc,
+                if m.used { "  used" } else { "  out of model" }
+            ));
+        }
+        for r in &self.rejected_modes {
+            out.push_str(&format!(
+                "  rejected pole {} Hz ({} %): {}\n",
+                sig(r.frequency_hz, 5),
+                sig(100.0 * r.damping_ratio, 3),
+                r.reason
+            ));
+        }
+        if let Some(tau) = self.exponential_tau_s {
+            out.push_str(&format!(
+                "exponential window tau = {} s removed from the modes\n",
+                sig(tau, 4)
+            ));
+        }
+        for c in &self.checks.reciprocity {
+            out.push_str(&format!(
+                "reciprocity {} against {}: {} %\n",
+                c.a,
+                c.b,
+                sig(100.0 * c.relative_difference, 3)
+            ));
+        }
+        out.push_str(&format!(
+            "\nRayleigh: alpha = {} 1/s, beta = {} s\n\n",
+            sig(self.rayleigh.alpha, 5),
+            sig(self.rayleigh.beta, 5)
+        ));
+        let m = |rows: &Vec<Vec<f64>>| DMatrix::from_fn(rows.len(), rows.len(), |i, j| rows[i][j]);
+        out.push_str(&matrix("Mass M [kg]", &m(&self.mass)));
+        out.push_str(&matrix("Stiffness K [N/m]", &m(&self.stiffness)));
+        out.push_str(&matrix("Damping, MKR [N s/m]", &m(&self.damping_mkr)));
+        out.push_str(&matrix(
+            "Damping, Rayleigh alpha M + beta K [N s/m]",
+            &m(&self.damping_rayleigh),
+        ));
+        out.push_str(&format!(
+            "\nSecond-order consistency ||W W^T|| / ||W L W^T|| = {:.3e}\n",
+            self.consistency
+        ));
+        if self.polarity_flipped {
+            out.push_str("Input polarity was inverted and has been flipped.\n");
+        }
+        if let Some(r) = &self.refined {
+            out.push_str(&r.human());
+        }
+        if !self.warnings.is_empty() {
+            out.push_str("\nWarnings\n");
+            for w in &self.warnings {
+                out.push_str(&format!("  - {w}\n"));
+            }
+        }
+        out
     }
 }

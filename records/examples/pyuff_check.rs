@@ -48,6 +48,7 @@ fn sample(frequency_hz: Vec<f64>) -> FrfFile {
                 .then(|| frequency_hz.iter().map(|f| 0.5 + 0.5 / (1.0 + f)).collect()),
             averages: Some(10),
             source: String::new(),
+            exponential_tau_s: None,
         });
     }
     FrfFile {

@@ -122,6 +122,7 @@ fn pair(response: FrfPoint, reference: FrfPoint, quantity: FrfQuantity, f: &[f64
         coherence: None,
         averages: None,
         source: "dataset 1".into(),
+        exponential_tau_s: None,
     }
 }
 

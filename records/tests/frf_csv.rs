@@ -160,6 +160,7 @@ fn sample() -> FrfFile {
             coherence: Some(frequency_hz.iter().map(|&f| 1.0 / (1.0 + f)).collect()),
             averages: None,
             source: String::new(),
+            exponential_tau_s: None,
         },
         FrfPair {
             response: FrfPoint::named("acc 2"),
@@ -169,6 +170,7 @@ fn sample() -> FrfFile {
             coherence: None,
             averages: None,
             source: String::new(),
+            exponential_tau_s: None,
         },
     ];
     FrfFile {

@@ -118,6 +118,7 @@ fn sample(frequency_hz: Vec<f64>) -> FrfFile {
                     .then(|| frequency_hz.iter().map(|f| 1.0 / (1.0 + f / 1e3)).collect()),
                 averages: Some(12),
                 source: String::new(),
+                exponential_tau_s: None,
             });
         }
     }

@@ -244,6 +244,8 @@ fn inconsistent_lengths_are_refused_with_a_precise_message() {
         measured: vec![[1.0, 0.0]; 2],
         identified: vec![],
         truth: None,
+        reference: None,
+        coherence: None,
     }];
     s.representative = Some(rep);
     let msg = reports::render(&report_of(vec![s]))
@@ -397,6 +399,8 @@ fn random_report(seed: u64) -> Report {
                             measured: complex_about(&mut rng, nf),
                             identified: complex(&mut rng, nf),
                             truth: (rng.uniform() < 0.5).then(|| complex(&mut rng, nf)),
+                            reference: None,
+                            coherence: None,
                         })
                         .collect(),
                     tables: (0..rng.below(3))

@@ -5,10 +5,11 @@ use std::io::Write;
 
 use anyhow::{Context, Result, anyhow, bail};
 use records::consistency::ByLine;
+use records::numfmt::sig;
 use records::{ChannelSpec, ReadOptions, RecordFile};
 use study::analysis::{AnalysisSettings, Screening, analyze_located, identifier};
 
-use crate::cli::IdentifyArgs;
+use crate::cli::{IdentifyArgs, SelectArgs};
 use crate::output::{Collocated, IdentifyReport, Source};
 
 /// Parses a comma-separated list of channel selectors given to `flag`.
@@ -19,7 +20,11 @@ fn parse_specs(flag: &str, list: &str) -> Result<Vec<ChannelSpec>> {
 }
 
 /// Parses `OUT:IN` with zero-based indices or channel names.
-fn parse_collocated(text: &str, outputs: &[String], inputs: &[String]) -> Result<(usize, usize)> {
+pub(crate) fn parse_collocated(
+    text: &str,
+    outputs: &[String],
+    inputs: &[String],
+) -> Result<(usize, usize)> {
     let (o, i) = text.split_once(':').ok_or_else(|| {
         anyhow!("--collocated: expected OUT:IN (e.g. 0:0 or acc1:force), got '{text}'")
     })?;
@@ -47,18 +52,33 @@ fn parse_collocated(text: &str, outputs: &[String], inputs: &[String]) -> Result
     Ok((find("output", o, outputs)?, find("input", i, inputs)?))
 }
 
+/// A frequency in Hz given to `flag`: finite, not negative.
+fn frequency(flag: &str, t: &str) -> Result<f64> {
+    let v: f64 = t
+        .trim()
+        .parse()
+        .map_err(|_| anyhow!("{flag}: '{}' is not a number (Hz)", t.trim()))?;
+    if !(v.is_finite() && v >= 0.0) {
+        bail!("{flag}: {v} is not a frequency in Hz (finite, not negative)");
+    }
+    Ok(v)
+}
+
+/// `LOW:HIGH` in Hz given to `flag`, low below high.
+pub(crate) fn parse_band(flag: &str, band: &str) -> Result<(f64, f64)> {
+    let (lo, hi) = band
+        .split_once(':')
+        .ok_or_else(|| anyhow!("{flag}: expected LOW:HIGH in Hz (e.g. 1:12), got '{band}'"))?;
+    let (low_hz, high_hz) = (frequency(flag, lo)?, frequency(flag, hi)?);
+    if low_hz >= high_hz {
+        bail!("{flag}: the low edge {low_hz} Hz must be below the high edge {high_hz} Hz");
+    }
+    Ok((low_hz, high_hz))
+}
+
 /// `--modes F1,F2,...` or `--band LOW:HIGH` (Hz) as a mode selection.
 fn mode_selection(args: &IdentifyArgs) -> Result<ident::ModeSelection> {
-    let number = |flag: &str, t: &str| -> Result<f64> {
-        let v: f64 = t
-            .trim()
-            .parse()
-            .map_err(|_| anyhow!("{flag}: '{}' is not a number (Hz)", t.trim()))?;
-        if !(v.is_finite() && v >= 0.0) {
-            bail!("{flag}: {v} is not a frequency in Hz (finite, not negative)");
-        }
-        Ok(v)
-    };
+    let number = frequency;
     if let Some(list) = &args.modes {
         let frequencies_hz = list
             .split(',')
@@ -70,13 +90,7 @@ fn mode_selection(args: &IdentifyArgs) -> Result<ident::ModeSelection> {
         return Ok(ident::ModeSelection::Near { frequencies_hz });
     }
     if let Some(band) = &args.band {
-        let (lo, hi) = band
-            .split_once(':')
-            .ok_or_else(|| anyhow!("--band: expected LOW:HIGH in Hz (e.g. 1:12), got '{band}'"))?;
-        let (low_hz, high_hz) = (number("--band", lo)?, number("--band", hi)?);
-        if low_hz >= high_hz {
-            bail!("--band: the low edge {low_hz} Hz must be below the high edge {high_hz} Hz");
-        }
+        let (low_hz, high_hz) = parse_band("--band", band)?;
         return Ok(ident::ModeSelection::Band { low_hz, high_hz });
     }
     Ok(ident::ModeSelection::Auto)
@@ -85,11 +99,6 @@ fn mode_selection(args: &IdentifyArgs) -> Result<ident::ModeSelection> {
 /// Checks the numeric flags before any file is read, so that an error
 /// names the flag.
 fn check_flags(args: &IdentifyArgs) -> Result<()> {
-    if let Some(fs) = args.fs
-        && !(fs.is_finite() && fs > 0.0)
-    {
-        bail!("--fs: must be a positive sampling rate in Hz, got {fs}");
-    }
     if args.observer_order == Some(0) {
         bail!("--observer-order: must be at least 1");
     }
@@ -131,7 +140,17 @@ pub fn run(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
             };
             IdentifyReport::new(&result, source)
         }
-        None => identify_records(args, modes)?,
+        None => {
+            let Some(first) = args.files.first() else {
+                bail!("no record files given");
+            };
+            let bytes = std::fs::read(first)
+                .with_context(|| format!("{}: cannot read", first.display()))?;
+            if records::frf::content_kind(&bytes) == records::frf::ContentKind::Frf {
+                return identify_frfs(args, out);
+            }
+            identify_records(args, modes)?
+        }
     };
     let text = if args.json {
         let mut text = serde_json::to_string_pretty(&report)?;
@@ -144,24 +163,37 @@ pub fn run(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
-/// Reads the record files, selects the channels and runs the analysis.
-fn identify_records(args: &IdentifyArgs, modes: ident::ModeSelection) -> Result<IdentifyReport> {
-    if args.files.is_empty() {
-        bail!("no record files given");
+/// Reads the record files and selects their channels into one campaign.
+pub(crate) fn load_campaign(
+    select: &SelectArgs,
+    paths: &[std::path::PathBuf],
+) -> Result<(Vec<RecordFile>, ident::Campaign)> {
+    if let Some(fs) = select.fs
+        && !(fs.is_finite() && fs > 0.0)
+    {
+        bail!("--fs: must be a positive sampling rate in Hz, got {fs}");
     }
-    let opts = ReadOptions { fs_hz: args.fs };
-    let files: Vec<RecordFile> = args
-        .files
+    let opts = ReadOptions { fs_hz: select.fs };
+    let files: Vec<RecordFile> = paths
         .iter()
         .map(|f| records::read_record(f, &opts))
         .collect::<Result<_, _>>()?;
-    let inputs = parse_specs("--input", &args.input)?;
-    let outputs = args
+    let inputs = parse_specs("--input", &select.input)?;
+    let outputs = select
         .outputs
         .as_deref()
         .map(|list| parse_specs("--outputs", list))
         .transpose()?;
     let campaign = records::select(&files, &inputs, outputs.as_deref())?;
+    Ok((files, campaign))
+}
+
+/// Reads the record files, selects the channels and runs the analysis.
+fn identify_records(args: &IdentifyArgs, modes: ident::ModeSelection) -> Result<IdentifyReport> {
+    if args.files.is_empty() {
+        bail!("no record files given");
+    }
+    let (files, campaign) = load_campaign(&args.select, &args.files)?;
     let collocated = match &args.collocated {
         Some(text) => parse_collocated(text, &campaign.outputs, &campaign.inputs)?,
         None => (0, 0),
@@ -198,4 +230,213 @@ fn identify_records(args: &IdentifyArgs, modes: ident::ModeSelection) -> Result<
             .with_context(|| format!("--report {}", path.display()))?;
     }
     Ok(IdentifyReport::from_analysis(&analysis))
+}
+
+/// A point `NAME` or `NAME@NODE:DIR` given to `flag`.
+fn parse_point(flag: &str, text: &str) -> Result<records::frf::FrfPoint> {
+    let text = text.trim();
+    match text.split_once('@') {
+        None if !text.is_empty() => Ok(records::frf::FrfPoint::named(text)),
+        None => bail!("{flag}: empty point name"),
+        Some((name, at)) => {
+            let (node, dir) = at.split_once(':').ok_or_else(|| {
+                anyhow!("{flag}: expected NAME@NODE:DIR (e.g. force@2:+X), got '{text}'")
+            })?;
+            let node: i64 = node
+                .trim()
+                .parse()
+                .map_err(|_| anyhow!("{flag}: node '{node}' of '{text}' is not an integer"))?;
+            let dir = records::parse_direction(dir.trim()).ok_or_else(|| {
+                anyhow!("{flag}: direction '{dir}' of '{text}' is not one of +X, -X, +Y, ..., +RZ (or 1..6, -1..-6)")
+            })?;
+            Ok(records::frf::FrfPoint::named_at(name.trim(), node, dir))
+        }
+    }
+}
+
+/// Reads FRF files, identifies them and renders the result.
+fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
+    use records::frf::{AssembleOptions, FrfReadOptions, assemble, read_frf};
+    use study::frf_analysis::{FrfAnalysisSettings, analyze_frfs};
+
+    if args.strict && args.drop_bad_hits {
+        bail!("--strict and --drop-bad-hits cannot be used together");
+    }
+    if let Some(tau) = args.exponential_tau
+        && !(tau.is_finite() && tau > 0.0)
+    {
+        bail!("--exponential-tau: must be a positive time constant in seconds, got {tau}");
+    }
+    let quantity = args.frf_quantity.as_deref().map(|q| match q {
+        "receptance" => ident::FrfQuantity::Receptance,
+        "mobility" => ident::FrfQuantity::Mobility,
+        _ => ident::FrfQuantity::Accelerance,
+    });
+    let references = args
+        .reference
+        .iter()
+        .map(|r| parse_point("--reference", r))
+        .collect::<Result<Vec<_>>>()?;
+    if references.len() > 1 && references.len() != args.files.len() {
+        bail!(
+            "--reference: give one for every file ({} files) or one for all, got {}",
+            args.files.len(),
+            references.len()
+        );
+    }
+    let responses = args
+        .responses
+        .as_deref()
+        .map(|list| {
+            list.split(',')
+                .map(|p| parse_point("--responses", p))
+                .collect::<Result<Vec<_>>>()
+        })
+        .transpose()?;
+    let files = args
+        .files
+        .iter()
+        .enumerate()
+        .map(|(k, path)| {
+            let opts = FrfReadOptions {
+                quantity,
+                unit: args.frf_unit.clone(),
+                reference: references
+                    .get(if references.len() == 1 { 0 } else { k })
+                    .cloned(),
+                responses: responses.clone(),
+            };
+            read_frf(path, &opts)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let set = assemble(&files, &AssembleOptions::default())?;
+    let frf = &set.frf;
+    let outputs: Vec<String> = frf.outputs.clone();
+    let collocated = match &args.collocated {
+        Some(text) => parse_collocated(text, &outputs, &frf.references)?,
+        None => set.collocated.first().map(|c| (c.output, c.input)).ok_or_else(|| {
+            anyhow!(
+                "no response point is at a reference point (node and direction), so the collocated pair is unknown; give it with --collocated OUT:IN (outputs: {}; references: {})",
+                outputs.join(", "),
+                frf.references.join(", ")
+            )
+        })?,
+    };
+    let mut identifier =
+        ident::frf::FrfIdentifier::default().collocated(collocated.0, collocated.1);
+    if let Some(band) = &args.band {
+        let (lo, hi) = parse_band("--band", band)?;
+        identifier = identifier.band_hz(lo, hi);
+    }
+    if let Some(order) = args.order {
+        identifier = identifier.order(ident::frf::FrfOrder::Fixed(order));
+    }
+    if let Some(list) = &args.modes {
+        let frequency_hz = list
+            .split(',')
+            .map(|t| frequency("--modes", t))
+            .collect::<Result<Vec<f64>>>()?;
+        // A target names the mode within 10 % of it: modes of a frame are
+        // further apart than that, a target off by more is a mistake.
+        identifier = identifier.selection(ident::frf::ModeSelection::Nearest {
+            frequency_hz,
+            tolerance: 0.1,
+        });
+    }
+    if frf.coherence.is_some() {
+        identifier = identifier.weighting(ident::frf::Weighting::Coherence);
+    }
+    if let Some(tau) = args.exponential_tau.or(set.exponential_tau_s) {
+        identifier = identifier.exponential_window(tau);
+    }
+    // Where each reference acts: the floor of the response at its point.
+    let reference_outputs: Vec<Option<usize>> = set
+        .references
+        .iter()
+        .enumerate()
+        .map(|(l, r)| {
+            if l == collocated.1 {
+                Some(collocated.0)
+            } else {
+                set.responses.iter().position(|p| p.same_point(r))
+            }
+        })
+        .collect();
+    let settings = FrfAnalysisSettings {
+        identifier,
+        strict: args.strict,
+        refine: args.refine.then_some(args.parametrization),
+    };
+    let analysis = analyze_frfs(frf, &reference_outputs, &settings)?;
+    let point = |p: &records::frf::FrfPoint| crate::output::PointReport {
+        name: p.name.clone(),
+        node: p.node,
+        direction: p.direction,
+    };
+    let names: Vec<String> = args.files.iter().map(|f| f.display().to_string()).collect();
+    let source = crate::output::FrfSource {
+        files: names.clone(),
+        quantity: frf.quantity.to_string(),
+        lines: frf.frequency_hz.len(),
+        band_hz: [
+            frf.frequency_hz[0],
+            frf.frequency_hz[frf.frequency_hz.len() - 1],
+        ],
+        averages: frf.averages,
+        coherence: frf.coherence.is_some(),
+        outputs: set.responses.iter().map(point).collect(),
+        references: set.references.iter().map(point).collect(),
+        collocated: Collocated {
+            output: collocated.0,
+            input: collocated.1,
+        },
+    };
+    let report = crate::output::FrfIdentifyReport::new(&analysis, source);
+    if let Some(path) = &args.report {
+        let command = std::env::args().collect::<Vec<_>>().join(" ");
+        let rows = vec![
+            study::campaign_report::setup_row("Files", names.join(", ")),
+            study::campaign_report::setup_row(
+                "FRFs",
+                format!(
+                    "{} of {} responses to {} reference(s), {} lines {}-{} Hz, {} average(s), coherence {}",
+                    frf.quantity,
+                    frf.outputs.len(),
+                    frf.references.len(),
+                    frf.frequency_hz.len(),
+                    sig(report.source.band_hz[0], 5),
+                    sig(report.source.band_hz[1], 5),
+                    frf.averages.map_or("unknown".into(), |n| n.to_string()),
+                    if frf.coherence.is_some() {
+                        "given (lines weighted by it)"
+                    } else {
+                        "not given"
+                    }
+                ),
+            ),
+            study::campaign_report::setup_row(
+                "Collocated pair",
+                format!(
+                    "{} / {}",
+                    outputs[collocated.0], frf.references[collocated.1]
+                ),
+            ),
+        ];
+        let dofs: Vec<Option<usize>> = match &analysis.refinement {
+            Some(r) => r.reference_dofs.iter().map(|&d| Some(d)).collect(),
+            None => reference_outputs.clone(),
+        };
+        let page = study::campaign_report::frf_report(&analysis, frf, &dofs, rows, &command);
+        reports::render_campaign_to_file(&page, path)
+            .with_context(|| format!("--report {}", path.display()))?;
+    }
+    let text = if args.json {
+        let mut text = serde_json::to_string_pretty(&report)?;
+        text.push('\n');
+        text
+    } else {
+        report.human()
+    };
+    out.write_all(text.as_bytes())?;
+    Ok(())
 }

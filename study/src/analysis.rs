@@ -578,6 +578,8 @@ struct Misfit {
     /// Sample of the largest residual, and its size in robust deviations
     /// of the residual (1.4826 x its median absolute deviation).
     glitch: (usize, f64),
+    /// That largest departure over the channel's peak `|y|` in the hit.
+    glitch_of_peak: f64,
 }
 
 /// The misfit of every output (inner) of every hit of `c` (outer) to
@@ -617,10 +619,16 @@ fn misfits(c: &Campaign, model: &Identification) -> Vec<Vec<Misfit>> {
                         .iter()
                         .enumerate()
                         .fold((0, 0.0), |a, (i, &d)| if d > a.1 { (i, d) } else { a });
+                    let peak = r
+                        .outputs
+                        .row(j)
+                        .iter()
+                        .fold(0.0, |a: f64, y| a.max(y.abs()));
                     Misfit {
                         share,
                         gain,
                         glitch: (at, if scale > 0.0 { top / scale } else { 0.0 }),
+                        glitch_of_peak: if peak > 0.0 { top / peak } else { 0.0 },
                     }
                 })
                 .collect()
@@ -685,6 +693,7 @@ fn residual_flags(
             && let Some(j) = (0..m).find(|&j| {
                 share[j].glitch.1 > settings.glitch_sigmas
                     && share[j].glitch.1 > settings.glitch_factor * glitch_medians[j]
+                    && share[j].glitch_of_peak > settings.glitch_floor
             })
         {
             let (at, z) = share[j].glitch;

@@ -42,6 +42,10 @@ pub struct FrfSet {
     /// [`AssembleOptions::collocated`]. Possibly empty; ordered by
     /// reference.
     pub collocated: Vec<CollocatedPair>,
+    /// Time constant (s) of the exponential window the FRFs were estimated
+    /// with, when every pair states the same one (see
+    /// [`FrfPair::exponential_tau_s`](super::FrfPair::exponential_tau_s)).
+    pub exponential_tau_s: Option<f64>,
 }
 
 /// Why FRF files do not make one FRF matrix. Pairs are described as
@@ -77,6 +81,21 @@ pub enum FrfSetProblem {
         other: String,
         /// Its quantity.
         other_quantity: FrfQuantity,
+    },
+    /// Pairs estimated with different exponential windows (or one with
+    /// and one without).
+    #[error(
+        "{first} was estimated with {first_tau} but {other} with {other_tau}: FRFs of different exponential windows have different damping and cannot be identified together"
+    )]
+    ExponentialWindow {
+        /// The first pair.
+        first: String,
+        /// Its window, as text.
+        first_tau: String,
+        /// The pair that differs.
+        other: String,
+        /// Its window.
+        other_tau: String,
     },
     /// Pairs estimated with different numbers of averages.
     #[error("{first} has {first_averages} averages but {other} has {other_averages}")]
@@ -244,6 +263,19 @@ pub fn assemble(files: &[FrfFile], opts: &AssembleOptions) -> Result<FrfSet, Rec
                 Some(_) => {}
             }
         }
+        if pair.exponential_tau_s != first_pair.exponential_tau_s {
+            let text = |t: Option<f64>| {
+                t.map_or("no exponential window".to_string(), |t| {
+                    format!("an exponential window of tau = {t} s")
+                })
+            };
+            return Err(err(FrfSetProblem::ExponentialWindow {
+                first: describe(first_path, &first_pair.source),
+                first_tau: text(first_pair.exponential_tau_s),
+                other: describe(path, &pair.source),
+                other_tau: text(pair.exponential_tau_s),
+            }));
+        }
         let i = index_of(&mut responses, &pair.response, "response")?;
         let j = index_of(&mut references, &pair.reference, "reference")?;
         if let Some((_, _, p0, q0)) = slots.iter().find(|s| s.0 == i && s.1 == j) {
@@ -347,5 +379,6 @@ pub fn assemble(files: &[FrfFile], opts: &AssembleOptions) -> Result<FrfSet, Rec
         responses,
         references,
         collocated,
+        exponential_tau_s: first_pair.exponential_tau_s,
     })
 }

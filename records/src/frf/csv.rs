@@ -385,6 +385,7 @@ fn parse_headerless(
             coherence: None,
             averages: None,
             source: format!("column {}", i + 2),
+            exponential_tau_s: None,
         })
         .collect();
     Ok(FrfFile {
@@ -649,6 +650,7 @@ fn parse_headed(
             coherence,
             averages: None,
             source: format!("columns {}-{}", re + 1, im + 1),
+            exponential_tau_s: None,
         });
     }
     Ok(FrfFile {

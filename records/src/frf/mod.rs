@@ -200,6 +200,11 @@ pub struct FrfPair {
     pub coherence: Option<Vec<f64>>,
     /// Number of averages behind the estimate, if the file states it.
     pub averages: Option<usize>,
+    /// Time constant (s) of the exponential window `exp(-t / tau)` the
+    /// estimate was made with, if any: it adds `1 / tau` to every pole's
+    /// decay rate, which identification removes. UFF58: `tau_s=` in ID
+    /// line 4 (frameid's tag); CSV files do not carry it.
+    pub exponential_tau_s: Option<f64>,
     /// Where in the file it was read, for messages (`dataset 3`,
     /// `columns 2-3`); empty for pairs built in memory.
     pub source: String,
@@ -284,6 +289,7 @@ impl FrfFile {
                         .map(|c| c.iter().map(|g| g[(i, j)]).collect()),
                     averages: frf.averages,
                     source: String::new(),
+                    exponential_tau_s: None,
                 });
             }
         }

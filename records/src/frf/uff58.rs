@@ -38,6 +38,7 @@ struct Read58 {
     real: Vec<f64>,
     quantity: FrfQuantity,
     averages: Option<usize>,
+    exponential_tau_s: Option<f64>,
 }
 
 /// The kind of a UFF file: the function type of its first dataset 58.
@@ -384,6 +385,10 @@ fn interpret(
         .find_map(|id| tag_value(id, "averages"))
         .filter(|a| *a >= 1.0 && a.fract() == 0.0)
         .map(|a| a as usize);
+    let exponential_tau_s = raw.id[3..]
+        .iter()
+        .find_map(|id| tag_value(id, "tau_s"))
+        .filter(|t| *t > 0.0);
     let r6 = &raw.r6;
     Ok(Read58 {
         index: raw.index,
@@ -400,6 +405,7 @@ fn interpret(
         real,
         quantity,
         averages,
+        exponential_tau_s,
     })
 }
 
@@ -499,6 +505,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<FrfFile, RecordError> {
             coherence: None,
             averages: s.averages,
             source: format!("dataset {}", s.index),
+            exponential_tau_s: s.exponential_tau_s,
         });
         pair_index.push(s.index);
     }
@@ -738,6 +745,7 @@ pub(crate) fn render(file: &FrfFile, binary: bool) -> Result<Vec<u8>, String> {
                 func_id: id,
                 id1: &format!("H {desc}"),
                 averages: pair.averages,
+                exponential_tau_s: pair.exponential_tau_s,
                 response: r,
                 reference: s,
                 quantity: Some(pair.quantity),
@@ -757,6 +765,7 @@ pub(crate) fn render(file: &FrfFile, binary: bool) -> Result<Vec<u8>, String> {
                     func_id: id,
                     id1: &format!("coherence {desc}"),
                     averages: pair.averages,
+                    exponential_tau_s: pair.exponential_tau_s,
                     response: r,
                     reference: s,
                     quantity: None,
@@ -777,6 +786,7 @@ struct Dataset<'a> {
     func_id: usize,
     id1: &'a str,
     averages: Option<usize>,
+    exponential_tau_s: Option<f64>,
     response: &'a (i64, i32, String),
     reference: &'a (i64, i32, String),
     /// `Some` for an FRF (complex), `None` for a coherence (real).
@@ -813,9 +823,11 @@ fn dataset(out: &mut Vec<u8>, d: &Dataset, f: &[f64], even: Option<(f64, f64)>, 
     push_line(out, &format!("{id1:<80}"));
     push_line(out, &format!("{:<80}", "NONE"));
     push_line(out, &format!("{:<80}", "NONE"));
-    let id4 = match d.averages {
-        Some(a) => format!("{TAG} averages={a}"),
-        None => "NONE".into(),
+    let id4 = match (d.averages, d.exponential_tau_s) {
+        (Some(a), Some(t)) => format!("{TAG} averages={a} tau_s={}", numfmt::shortest(t)),
+        (Some(a), None) => format!("{TAG} averages={a}"),
+        (None, Some(t)) => format!("{TAG} tau_s={}", numfmt::shortest(t)),
+        (None, None) => "NONE".into(),
     };
     push_line(out, &format!("{id4:<80}"));
     let id5 = match even {

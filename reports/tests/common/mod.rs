@@ -389,6 +389,8 @@ pub fn representative(
                 measured,
                 identified,
                 truth: with_truth.then_some(truth),
+                reference: None,
+                coherence: None,
             }
         })
         .collect();
