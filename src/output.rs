@@ -212,6 +212,16 @@ impl RefinedReport {
         if let Some(model) = &self.noise_model {
             out.push_str(&format!("  noise model of the FRF values: {model}\n"));
         }
+        if self.noise_outputs.is_empty() {
+            out.push_str(&format!(
+                "  {} iterations, stopped on {} (cost {} -> {})\n",
+                self.iterations,
+                self.stop,
+                sig(self.initial_cost, 4),
+                sig(self.cost, 4)
+            ));
+            return out;
+        }
         out.push_str(&format!(
             "  noise std: outputs {}, input {}; {} iterations, stopped on {} (cost {} -> {})\n",
             self.noise_outputs

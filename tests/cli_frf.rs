@@ -115,3 +115,145 @@ fn frf_then_identify_recovers_the_truth_as_the_time_route_does() {
         }
     }
 }
+
+/// The Cristallo rig's measured FRFs (`../shared/realdata/cristallo`, BSD
+/// 3-Clause): three floors of 5.201 kg each as the platform states them,
+/// driven at floor 2 (`test_2.csv`) and floor 3 (`test_3.csv`), accelerance
+/// in (m/s^2)/N on a 0.03125 Hz grid, no coherence.
+fn cristallo(extra: &[&str]) -> Value {
+    let dir = repo("../shared/realdata/cristallo");
+    assert!(
+        dir.join("test_2.csv").is_file(),
+        "the Cristallo FRFs are expected in {} (see the README)",
+        dir.display()
+    );
+    let (a, b) = (dir.join("test_2.csv"), dir.join("test_3.csv"));
+    let mut args = vec![
+        "identify",
+        "--json",
+        s(&a),
+        s(&b),
+        "--frf-quantity",
+        "accelerance",
+        "--reference",
+        "f2@2:+X",
+        "--reference",
+        "f3@3:+X",
+        "--responses",
+        "floor1@1:+X,floor2@2:+X,floor3@3:+X",
+        "--band",
+        "3:35",
+    ];
+    args.extend_from_slice(extra);
+    serde_json::from_str(&ok(&args)).unwrap()
+}
+
+/// Apparent mass `1 / |H_ii|` at `frequency_hz` of the model `(M, K,
+/// damping)` (rows) for a force at DOF `i`: `H = -w^2 (K - w^2 M + i w
+/// damping)^-1`.
+fn model_apparent_mass(v: &Value, i: usize, frequency_hz: f64) -> f64 {
+    use nalgebra::DMatrix;
+    use num_complex::Complex64 as C;
+    let (m, k, d) = (
+        matrix(&v["mass"]),
+        matrix(&v["stiffness"]),
+        matrix(&v["damping_rayleigh"]),
+    );
+    let w = 2.0 * std::f64::consts::PI * frequency_hz;
+    let q = DMatrix::from_fn(3, 3, |r, c| C::new(k[r][c] - w * w * m[r][c], w * d[r][c]));
+    let mut e = DMatrix::zeros(3, 1);
+    e[(i, 0)] = C::new(1.0, 0.0);
+    let x = q.lu().solve(&e).expect("a regular dynamic stiffness");
+    1.0 / (x[(i, 0)] * w * w).norm()
+}
+
+/// Measured apparent mass `1 / |H|` of column `col` (1-based FRF column)
+/// of a Cristallo file at the line nearest `frequency_hz`.
+fn measured_apparent_mass(file: &str, col: usize, frequency_hz: f64) -> f64 {
+    let text = std::fs::read_to_string(repo("../shared/realdata/cristallo").join(file)).unwrap();
+    let line = text
+        .lines()
+        .nth((frequency_hz / 0.03125).round() as usize - 1)
+        .unwrap();
+    let z = line.split(';').nth(col).unwrap().trim();
+    // Python's complex notation: a+bj.
+    let z = z.trim_end_matches('j');
+    let split = z[1..].rfind(['+', '-']).unwrap() + 1;
+    let (re, im): (f64, f64) = (z[..split].parse().unwrap(), z[split..].parse().unwrap());
+    1.0 / re.hypot(im)
+}
+
+#[test]
+fn the_cristallo_rig_gives_its_peaks_masses_mass_lines_and_reciprocity() {
+    let v = cristallo(&[]);
+    assert_eq!(v["source"]["collocated"]["output"], 1, "floor 2 / f2");
+    // Modes against the measured peaks of the driving-point FRF (picked
+    // on the 0.03125 Hz grid: 6.5, 17.46875, 26.5 Hz): measured 6.5132,
+    // 17.4621, 26.5117 Hz. Half a line either way is the grid's own
+    // uncertainty, 0.05 Hz is a line and a half.
+    let f: Vec<f64> = v["frequencies_hz"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    for (fi, peak) in f.iter().zip([6.5, 17.46875, 26.5]) {
+        assert!(
+            (fi - peak).abs() < 0.05,
+            "{fi} Hz against the peak at {peak} Hz"
+        );
+    }
+    // The third peak is a close pair (26.505 and 26.512 Hz): the second
+    // is reported out of the 3-DOF model, not refused.
+    assert_eq!(v["out_of_model_modes"].as_array().unwrap().len(), 1);
+    // Floor masses against the rig's 5.201 kg: measured 5.360, 5.437,
+    // 4.951 kg (+3.1, +4.5, -4.8 %). The stated masses leave out the
+    // accelerometers, the legs' share and the fixings; 10 % is what such a
+    // rig's nominal masses are good for.
+    let m = matrix(&v["mass"]);
+    for (i, row) in m.iter().enumerate() {
+        assert!(
+            (row[i] / 5.201 - 1.0).abs() < 0.10,
+            "M{0}{0} = {1}",
+            i + 1,
+            row[i]
+        );
+    }
+    // Mass lines: above the modes a driving-point accelerance tends to
+    // the diagonal of M^-1, so its apparent mass 1 / |H_ii| flattens; the
+    // measured one still rises over 100-128 Hz (4.74 to 4.90 kg at floor
+    // 2: modes above the band pull). The identified model against the
+    // measurement at 100, 110 and 120 Hz: measured within 8.6 % at floor
+    // 2 and 1.8 % at floor 3 (where the 3-DOF model's M^-1 alone gives
+    // 1 / (M^-1)_ii = 5.37 and 4.84 kg). 10 % is the floor masses'
+    // tolerance.
+    for (i, file) in [(1, "test_2.csv"), (2, "test_3.csv")] {
+        for f in [100.0, 110.0, 120.0] {
+            let (model, measured) = (
+                model_apparent_mass(&v, i, f),
+                measured_apparent_mass(file, i + 1, f),
+            );
+            eprintln!(
+                "floor {} at {f} Hz: model {model:.3} kg, measured {measured:.3} kg",
+                i + 1
+            );
+            assert!(
+                (model / measured - 1.0).abs() < 0.10,
+                "floor {} at {f} Hz",
+                i + 1
+            );
+        }
+    }
+    // Reciprocity between H(floor 3 / f2) and H(floor 2 / f3) over the
+    // band: measured 5.3 % (sensor calibrations and a lab rig's small
+    // nonlinearities); the check warns above 15 %.
+    let r = v["checks"]["reciprocity"][0]["relative_difference"]
+        .as_f64()
+        .unwrap();
+    assert!(r > 0.0 && r < 0.1, "reciprocity {r}");
+    assert!(
+        !v["warnings"].to_string().contains("reciprocity"),
+        "{}",
+        v["warnings"]
+    );
+}
