@@ -15,6 +15,8 @@
 //!   truth, as the report shows it.
 //! - [`campaign_report`]: the page of a campaign without truth (rig
 //!   records), as `frameid identify --report` writes it.
+//! - [`export`]: identified modes as UFF55 and the model's FRFs as
+//!   UFF58, for correlation.
 //! - [`frf_analysis`]: identification from measured FRFs, with the checks
 //!   of the FRFs (coherence, reciprocity).
 //! - [`frfs`]: FRFs and coherence of a screened campaign of records
@@ -51,6 +53,7 @@ pub mod campaign_dir;
 pub mod campaign_report;
 mod error;
 pub mod experiment;
+pub mod export;
 pub mod frf_analysis;
 pub mod frfs;
 mod fsutil;
