@@ -30,7 +30,6 @@ struct Errors {
     damping_mkr: f64,
 }
 
-#[allow(clippy::too_many_arguments)]
 fn errors(
     frequencies_hz: &[f64],
     damping_ratios: &[f64],
@@ -262,6 +261,19 @@ fn both_routes_in_shards_merge_to_the_bytes_of_one_run() {
         assert!(header.contains(&column), "{column}");
     }
     assert_eq!(csv.lines().filter(|l| l.contains(",ok,")).count(), 6);
+    // The report's side-by-side table: M, K, MKR and Rayleigh damping per
+    // level, both routes over all 3 trials, efficiencies where there is a
+    // bound (not at zero noise).
+    let report = study::report::study(&whole).unwrap();
+    let routes = &report.accuracy.routes;
+    assert_eq!(routes.len(), 2 * 4);
+    for r in routes {
+        assert_eq!((r.time.trials, r.frf.trials), (3, 3), "{r:?}");
+        assert!(r.time.rms >= 0.0 && r.frf.rms >= 0.0, "{r:?}");
+        assert_eq!(r.time.efficiency.is_nan(), r.noise_level == 0.0, "{r:?}");
+        assert_eq!(r.frf.efficiency.is_nan(), r.noise_level == 0.0, "{r:?}");
+    }
+    assert!(reports::render(&study::report::build("t", "c", &[&whole]).unwrap()).is_ok());
 }
 
 #[test]
