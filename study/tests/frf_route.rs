@@ -319,6 +319,25 @@ fn a_failing_frf_route_leaves_the_time_route_scored() {
 }
 
 #[test]
+fn a_plan_takes_another_route() {
+    use study::scenario::RouteSetting;
+    let plan = study::sweep::Plan::new(&scenario("paper-case1.toml"), None, Some(2), None).unwrap();
+    let time_keys = plan.score_keys();
+    let both = plan.clone().with_route(RouteSetting::Both).unwrap();
+    assert_eq!(both.score_keys()[..time_keys.len()], time_keys[..]);
+    assert!(
+        both.score_keys()
+            .contains(&ScoreKey::Frf(FrfScore::Matrix(MatrixEstimate::Mass)))
+    );
+    // paper-case1.toml refines, which needs the time route.
+    let err = plan.with_route(RouteSetting::Frf).unwrap_err().to_string();
+    assert!(
+        err.starts_with("route frf (identification.refine): "),
+        "{err}"
+    );
+}
+
+#[test]
 fn frf_route_on_held_records_is_biased() {
     // The FRF route takes the DFT ratio of the records for the continuous
     // accelerance, which band-limited records give; held (ZOH) records give
