@@ -863,7 +863,7 @@ fn routes(out: &mut String, acc: &Accuracy) {
     if acc.routes.is_empty() {
         return;
     }
-    out.push_str("<div class=\"routes\">\n<h4>Time and FRF routes</h4>\n<p class=\"lede\">Both routes identify the same simulated campaigns: the time route from the records (OKID, ERA/DC, MKR), the FRF route from FRFs averaged across the hits (pLSCF, LSFD, MKR). Relative Frobenius errors over the trials in which each route identified; efficiency is the Cramér–Rao bound over the RMS error; the last column is the FRF route's mean square error over the time route's (above 1: the FRF route is worse).</p>\n");
+    out.push_str("<div class=\"routes\">\n<h4>Time and FRF routes</h4>\n<p class=\"lede\">Both routes identify the same simulated campaigns: the time route from the records (OKID, ERA/DC, MKR), the FRF route from FRFs averaged across the hits (pLSCF, LSFD, MKR). Relative Frobenius errors over the trials in which each route identified; efficiency is the Cramér–Rao bound over the RMS error; the last column is the FRF route's mean square error over the time route's (above 1: the FRF route is worse). The Rayleigh damping has two parameters, fewer than the bound's parametrization, so its efficiency can exceed 1.</p>\n");
     out.push_str("<div class=\"table-wrap\"><table class=\"routes\">\n<thead><tr><th scope=\"col\">Noise</th><th scope=\"col\">Quantity</th>");
     for route in ["time", "FRF"] {
         for col in ["trials", "median", "RMS", "efficiency"] {

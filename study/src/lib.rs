@@ -5,7 +5,8 @@
 //!
 //! - [`scenario`]: scenario files (TOML) and the built-in ones, through one
 //!   loader ([`LoadedScenario`]).
-//! - [`experiment`]: one trial (simulate, identify, refine) and the
+//! - [`experiment`]: one trial (simulate, then identify by the time route
+//!   and refine, and/or by the FRF route on the same records) and the
 //!   Cramér–Rao bound of a scenario.
 //! - [`score`]: the scores of a trial and their typed keys ([`ScoreKey`]).
 //! - [`sweep`]: plans, trials in parallel (bit-identical for any thread

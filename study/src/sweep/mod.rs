@@ -972,6 +972,26 @@ impl Plan {
     }
 }
 
+impl Plan {
+    /// The same plan identified by `route` instead of the scenario's
+    /// (`--route` on the command line); checks the result (the refinement
+    /// needs the time route: a message names `identification.refine`).
+    pub fn with_route(mut self, route: crate::scenario::RouteSetting) -> Result<Plan, StudyError> {
+        self.scenario.identification.route = route;
+        self.scenario.check_study_settings().map_err(|e| match e {
+            sim::SimError::Invalid { field, problem } => StudyError::InvalidSetting {
+                setting: format!("route {route} ({field})"),
+                problem,
+            },
+            error => StudyError::Simulation {
+                context: format!("route {route}"),
+                error,
+            },
+        })?;
+        Ok(self)
+    }
+}
+
 /// What [`execute`] did.
 #[derive(Debug, Clone)]
 pub struct Execution {
