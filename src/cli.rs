@@ -184,6 +184,9 @@ pub struct IdentifyArgs {
     /// FRFs measured with an exponential window exp(-t/tau) not stated in the file: its tau in seconds, whose damping is removed
     #[arg(long, value_name = "TAU_S", help_heading = "FRF files")]
     pub exponential_tau: Option<f64>,
+    /// Also write, for correlation with other tools, DIR/modes.uff (the model's modes as UFF dataset 55, with modal A from the identified M) and DIR/model_frf.uff (the identified model's accelerance as UFF58 on the measured frequency grid)
+    #[arg(long, conflicts_with = "realization", value_name = "DIR")]
+    pub export: Option<PathBuf>,
     /// Also write an HTML page of the identification: data and preprocessing, warnings, hit quality, stabilization diagram, modes in and out of the model, identified values with error bars, measured FRFs and coherence against the identified model
     #[arg(long, conflicts_with = "realization", value_name = "FILE")]
     pub report: Option<PathBuf>,

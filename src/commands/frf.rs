@@ -6,12 +6,12 @@ use std::io::Write;
 use anyhow::{Context, Result, bail};
 use ident::frf::estimate::{Estimator, ExponentialWindow, ForceWindow};
 use records::consistency::ByLine;
-use records::frf::{FrfFile, FrfFormat, FrfPoint, write_frf};
+use records::frf::{FrfFile, FrfFormat, write_frf};
 use study::analysis::{AnalysisSettings, Screening};
 use study::frfs::{AveragingChoice, FrfSettings, estimate_frfs};
 
 use crate::cli::{AveragingArg, EstimatorArg, FrfArgs, FrfFormatArg};
-use crate::commands::identify::{load_campaign, parse_band, parse_collocated};
+use crate::commands::identify::{load_campaign, parse_band, parse_collocated, record_points};
 use crate::output::FrfSummary;
 
 /// The file name and layout of each `--format`.
@@ -97,42 +97,7 @@ pub fn run(args: &FrfArgs, out: &mut dyn Write) -> Result<()> {
         .collocated(collocated.0, collocated.1);
     let outcome = estimate_frfs(&campaign, &ByLine(&files), &settings)?;
 
-    // Points: each channel's UFF node and direction when its file states
-    // them, else node = DOF number (floor), direction +X; the force at its
-    // collocated accelerometer's point.
-    let point_of = |name: &str, dof: usize| -> FrfPoint {
-        let channel = files[0].channels.iter().find(|c| c.name == name);
-        match channel.and_then(|c| c.node.zip(c.direction)) {
-            Some((node, dir)) => FrfPoint::named_at(name, node, dir),
-            None => FrfPoint::named_at(name, dof as i64 + 1, 1),
-        }
-    };
-    let responses: Vec<FrfPoint> = outcome
-        .campaign
-        .outputs
-        .iter()
-        .enumerate()
-        .map(|(i, n)| point_of(n, i))
-        .collect();
-    let references: Vec<FrfPoint> = outcome
-        .campaign
-        .inputs
-        .iter()
-        .enumerate()
-        .map(|(l, n)| {
-            let channel = files[0].channels.iter().find(|c| &c.name == n);
-            match channel.and_then(|c| c.node.zip(c.direction)) {
-                Some((node, dir)) => FrfPoint::named_at(n, node, dir),
-                None if l == collocated.1 => {
-                    let at = &responses[collocated.0];
-                    let (node, dir) = at.node_dir().unwrap_or((collocated.0 as i64 + 1, 1));
-                    FrfPoint::named_at(n, node, dir)
-                }
-                None => FrfPoint::named(n.as_str()),
-            }
-        })
-        .collect();
-
+    let (responses, references) = record_points(&files, &outcome.campaign, collocated);
     let dir = fsio::OutputDir::create(&args.out, "frf.json")?;
     let mut written = Vec::new();
     for &f in &args.format {

@@ -222,6 +222,29 @@ fn identify_records(args: &IdentifyArgs, modes: ident::ModeSelection) -> Result<
         ..AnalysisSettings::default()
     };
     let analysis = analyze_located(&campaign, &ByLine(&files), &settings)?;
+    if let Some(dir) = &args.export {
+        let id = &analysis.identification;
+        let (responses, inputs) = record_points(&files, &analysis.campaign, collocated);
+        let grid = {
+            let n = analysis.campaign.longest();
+            let df = 1.0 / (n as f64 * analysis.campaign.dt_s);
+            (0..=n / 2).map(|k| k as f64 * df).collect::<Vec<f64>>()
+        };
+        let model = match &analysis.refinement {
+            Some(r) => (&r.mass, &r.stiffness, &r.damping),
+            None => (&id.mass, &id.stiffness, &id.damping_rayleigh),
+        };
+        export(
+            dir,
+            &responses,
+            &[(inputs[collocated.1].clone(), collocated.0)],
+            &id.frequencies_hz,
+            &id.damping_ratios,
+            &id.mode_shapes,
+            model,
+            &grid,
+        )?;
+    }
     if let Some(path) = &args.report {
         let names: Vec<String> = args.files.iter().map(|f| f.display().to_string()).collect();
         let command = std::env::args().collect::<Vec<_>>().join(" ");
@@ -392,6 +415,38 @@ fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
         },
     };
     let report = crate::output::FrfIdentifyReport::new(&analysis, source);
+    if let Some(dir) = &args.export {
+        let id = &analysis.identification;
+        let placed: Vec<(records::frf::FrfPoint, usize)> = match &analysis.refinement {
+            Some(r) => set
+                .references
+                .iter()
+                .cloned()
+                .zip(r.reference_dofs.iter().copied())
+                .collect(),
+            None => set
+                .references
+                .iter()
+                .cloned()
+                .zip(&reference_outputs)
+                .filter_map(|(p, d)| d.map(|d| (p, d)))
+                .collect(),
+        };
+        let model = match &analysis.refinement {
+            Some(r) => (&r.mass, &r.stiffness, &r.damping),
+            None => (&id.mass, &id.stiffness, &id.damping_rayleigh),
+        };
+        export(
+            dir,
+            &set.responses,
+            &placed,
+            &id.frequencies_hz,
+            &id.damping_ratios,
+            &id.mode_shapes,
+            model,
+            &frf.frequency_hz,
+        )?;
+    }
     if let Some(path) = &args.report {
         let command = std::env::args().collect::<Vec<_>>().join(" ");
         let rows = vec![
@@ -438,5 +493,83 @@ fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
         report.human()
     };
     out.write_all(text.as_bytes())?;
+    Ok(())
+}
+
+/// The points of a campaign's outputs and inputs for FRF and mode files:
+/// each channel's UFF node and direction when its file states them, else
+/// node = DOF number (floor), direction +X; an input without them at its
+/// collocated output's point.
+pub(crate) fn record_points(
+    files: &[RecordFile],
+    c: &ident::Campaign,
+    collocated: (usize, usize),
+) -> (Vec<records::frf::FrfPoint>, Vec<records::frf::FrfPoint>) {
+    use records::frf::FrfPoint;
+    let stated = |name: &str| {
+        files
+            .first()
+            .and_then(|f| f.channels.iter().find(|ch| ch.name == name))
+            .and_then(|ch| ch.node.zip(ch.direction))
+    };
+    let responses: Vec<FrfPoint> = c
+        .outputs
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            let (node, dir) = stated(n).unwrap_or((i as i64 + 1, 1));
+            FrfPoint::named_at(n.as_str(), node, dir)
+        })
+        .collect();
+    let references = c
+        .inputs
+        .iter()
+        .enumerate()
+        .map(|(l, n)| match stated(n) {
+            Some((node, dir)) => FrfPoint::named_at(n.as_str(), node, dir),
+            None if l == collocated.1 => {
+                let (node, dir) = responses[collocated.0]
+                    .node_dir()
+                    .unwrap_or((collocated.0 as i64 + 1, 1));
+                FrfPoint::named_at(n.as_str(), node, dir)
+            }
+            None => FrfPoint::named(n.as_str()),
+        })
+        .collect();
+    (responses, references)
+}
+
+/// Writes `modes.uff` (UFF55: the modes of the model) and `model_frf.uff`
+/// (UFF58: the model's accelerance for each placed reference on
+/// `frequency_hz`) into `dir`, replacing a previous export.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn export(
+    dir: &std::path::Path,
+    responses: &[records::frf::FrfPoint],
+    references: &[(records::frf::FrfPoint, usize)],
+    frequencies_hz: &[f64],
+    damping_ratios: &[f64],
+    shapes: &nalgebra::DMatrix<ident::linalg::C64>,
+    model: (
+        &nalgebra::DMatrix<f64>,
+        &nalgebra::DMatrix<f64>,
+        &nalgebra::DMatrix<f64>,
+    ),
+    grid_hz: &[f64],
+) -> Result<()> {
+    let out = fsio::OutputDir::create(dir, "modes.uff")
+        .with_context(|| format!("--export {}", dir.display()))?;
+    let modes = study::export::modes(responses, frequencies_hz, damping_ratios, shapes, model.0);
+    records::frf::write_uff55(&out.path().join("modes.uff"), &modes)?;
+    let names: Vec<String> = responses.iter().map(|p| p.name.clone()).collect();
+    let refs: Vec<String> = references.iter().map(|(p, _)| p.name.clone()).collect();
+    let dofs: Vec<usize> = references.iter().map(|(_, d)| *d).collect();
+    let frf = study::export::model_frf(model, &dofs, grid_hz, &names, &refs);
+    let points: Vec<records::frf::FrfPoint> = references.iter().map(|(p, _)| p.clone()).collect();
+    let path = out.path().join("model_frf.uff");
+    let file = records::frf::FrfFile::from_frf(&path, &frf, responses, &points);
+    records::frf::write_frf(&path, &file, records::frf::FrfFormat::Uff58Ascii)?;
+    out.commit()
+        .with_context(|| format!("--export {}", dir.display()))?;
     Ok(())
 }
