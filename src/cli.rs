@@ -20,6 +20,19 @@ fn parametrization_parser() -> impl TypedValueParser<Value = ParametrizationSett
         .map(|s| s.parse().expect("a possible value"))
 }
 
+/// Parses `time`, `frf` or `both`, listing them in `--help`.
+fn route_parser() -> impl TypedValueParser<Value = study::scenario::RouteSetting> {
+    PossibleValuesParser::new(
+        study::scenario::RouteSetting::ALL.map(study::scenario::RouteSetting::name),
+    )
+    .map(|s| {
+        study::scenario::RouteSetting::ALL
+            .into_iter()
+            .find(|r| r.name() == s)
+            .expect("a possible value")
+    })
+}
+
 /// frameid: simulate hammer tests on shear frames, identify M, K and R from
 /// records, and measure how well they are recovered.
 #[derive(Debug, Parser)]
@@ -336,6 +349,9 @@ pub struct SweepArgs {
     /// Run even if `trials.csv` would take more than 1 GiB
     #[arg(long)]
     pub force: bool,
+    /// Identification route (overrides the scenario's `identification.route`): `time` records, `frf` (H1 FRFs across the hits, pLSCF, LSFD, MKR) or `both` on the same campaigns
+    #[arg(long, value_parser = route_parser())]
+    pub route: Option<study::scenario::RouteSetting>,
 }
 
 #[derive(Debug, Args)]

@@ -12,7 +12,7 @@ use records::numfmt::sig;
 use records::quality::HitQuality;
 use serde::Serialize;
 use study::analysis::Analysis;
-use study::score::{MatrixEstimate, ScoreKey};
+use study::score::{FrfScore, MatrixEstimate, ScoreKey};
 use study::sweep::Summary;
 
 /// A matrix as an array of rows.
@@ -745,6 +745,26 @@ pub fn summary_table(s: &Summary) -> String {
             out.push_str(&format!(" {:>8}", matrix(MatrixEstimate::DampingRefined)));
         }
         out.push('\n');
+        if s.plan.scenario.identification.route.frf() {
+            let frf = |key: FrfScore| med(ScoreKey::Frf(key));
+            let worst_frf = |key: fn(usize) -> FrfScore| {
+                (1..=dofs)
+                    .filter_map(|j| frf(key(j)))
+                    .fold(None, |a: Option<f64>, x| Some(a.map_or(x, |a| a.max(x))))
+            };
+            out.push_str(&format!(
+                "  {:<10} {:>7}  {:>4}  {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}\n",
+                "  FRF route",
+                "",
+                "",
+                cell(worst_frf(|mode| FrfScore::Frequency { mode })),
+                cell(worst_frf(|mode| FrfScore::DampingRatio { mode })),
+                cell(frf(FrfScore::Matrix(MatrixEstimate::Mass))),
+                cell(frf(FrfScore::Matrix(MatrixEstimate::Stiffness))),
+                cell(frf(FrfScore::Matrix(MatrixEstimate::DampingMkr))),
+                cell(frf(FrfScore::Matrix(MatrixEstimate::DampingRayleigh))),
+            ));
+        }
     }
     out
 }

@@ -114,7 +114,10 @@ pub fn run(args: &SweepArgs, out: &mut dyn Write) -> Result<()> {
         .transpose()?;
     let threads = threads(args.threads)?;
     let loaded = LoadedScenario::load(&args.scenario)?;
-    let plan = Plan::new(&loaded, noise, trials, args.seed)?;
+    let mut plan = Plan::new(&loaded, noise, trials, args.seed)?;
+    if let Some(route) = args.route {
+        plan = plan.with_route(route)?;
+    }
     check_output_size(
         &format!("{}/trials.csv", args.out.display()),
         plan.output_bytes(shard),
