@@ -340,6 +340,9 @@ pub struct IdentifyReport {
     /// The maximum-likelihood refinement (with `--refine`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refined: Option<RefinedReport>,
+    /// M without the known sensor masses (with `--sensor-mass`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub without_sensors: Option<WithoutSensors>,
 }
 
 impl IdentifyReport {
@@ -401,6 +404,7 @@ impl IdentifyReport {
             uncertainty_skipped: None,
             mkr_modes: r.mkr_modes.clone(),
             refined: None,
+            without_sensors: None,
         }
     }
 
@@ -594,6 +598,9 @@ impl IdentifyReport {
         }
         if let Some(r) = &self.refined {
             out.push_str(&r.human());
+        }
+        if let Some(w) = &self.without_sensors {
+            out.push_str(&w.human());
         }
         if !self.warnings.is_empty() {
             out.push_str("\nWarnings\n");
@@ -992,6 +999,9 @@ pub struct FrfIdentifyReport {
     pub checks: study::frf_analysis::FrfChecks,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refined: Option<RefinedReport>,
+    /// M without the known sensor masses (with `--sensor-mass`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub without_sensors: Option<WithoutSensors>,
     pub warnings: Vec<String>,
 }
 
@@ -1052,6 +1062,7 @@ impl FrfIdentifyReport {
             exponential_tau_s: id.exponential_tau_s,
             checks: a.checks.clone(),
             refined: a.refinement.as_ref().map(RefinedReport::from_frf),
+            without_sensors: None,
             warnings: a.warnings.clone(),
         }
     }
@@ -1144,11 +1155,70 @@ impl FrfIdentifyReport {
         if let Some(r) = &self.refined {
             out.push_str(&r.human());
         }
+        if let Some(w) = &self.without_sensors {
+            out.push_str(&w.human());
+        }
         if !self.warnings.is_empty() {
             out.push_str("\nWarnings\n");
             for w in &self.warnings {
                 out.push_str(&format!("  - {w}\n"));
             }
+        }
+        out
+    }
+}
+
+/// The identified mass matrices with known sensor masses taken off
+/// (`--sensor-mass`).
+#[derive(Debug, Clone, Serialize)]
+pub struct WithoutSensors {
+    /// The sensor masses, one per DOF, kg.
+    pub sensor_mass_kg: Vec<f64>,
+    /// `M - diag(sensor masses)`.
+    pub mass: Vec<Vec<f64>>,
+    /// The refined M without them, with `--refine`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refined_mass: Option<Vec<Vec<f64>>>,
+}
+
+impl WithoutSensors {
+    /// Takes `sensor_mass_kg` off `mass` (and `refined`).
+    pub fn new(
+        sensor_mass_kg: &[f64],
+        mass: &DMatrix<f64>,
+        refined: Option<&DMatrix<f64>>,
+    ) -> anyhow::Result<Self> {
+        let take = |m: &DMatrix<f64>| {
+            study::analysis::subtract_sensor_masses(m, sensor_mass_kg)
+                .map_err(|e| anyhow::anyhow!("--sensor-mass: {e}"))
+        };
+        let bare = take(mass)?;
+        let n = mass.nrows();
+        Ok(WithoutSensors {
+            sensor_mass_kg: if sensor_mass_kg.len() == 1 {
+                vec![sensor_mass_kg[0]; n]
+            } else {
+                sensor_mass_kg.to_vec()
+            },
+            mass: rows(&bare),
+            refined_mass: refined.map(take).transpose()?.map(|m| rows(&m)),
+        })
+    }
+
+    /// Readable table.
+    pub fn human(&self) -> String {
+        let m = |rows: &Vec<Vec<f64>>| DMatrix::from_fn(rows.len(), rows.len(), |i, j| rows[i][j]);
+        let mut out = format!(
+            "\nWithout the sensors ({} kg)\n",
+            self.sensor_mass_kg
+                .iter()
+                .map(|s| sig(*s, 4))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        out.push_str(&matrix("Mass M without the sensors [kg]", &m(&self.mass)));
+        if let Some(r) = &self.refined_mass {
+            out.push_str(&matrix("Refined mass M without the sensors [kg]", &m(r)));
         }
         out
     }
