@@ -327,3 +327,20 @@ def test_bad_input_names_the_file_or_argument(clean, tmp_path):
     low = frameid.FrfSet(f, v, coherence=np.full(v.shape, 0.3), collocated=(0, 0))
     assert "coherence" in message(frameid.identify_frf, low, strict=True)
     assert any("coherence" in w for w in frameid.identify_frf(low).warnings)
+
+
+def test_the_stubs_list_the_frf_api():
+    import ast
+
+    tree = ast.parse((REPO / "python" / "frameid" / "__init__.pyi").read_text(encoding="utf-8"))
+    stubs = {n.name: n for n in tree.body if isinstance(n, (ast.ClassDef, ast.FunctionDef))}
+    for name in ("frf", "read_frf", "identify_frf"):
+        assert name in stubs and name in frameid.__all__, name
+    for cls in ("FrfSet", "FrfResult", "FrfIdentification", "FrfRefined"):
+        assert cls in stubs and cls in frameid.__all__, cls
+        stubbed = {n.name for n in stubs[cls].body if isinstance(n, ast.FunctionDef)}
+        runtime = {n for n in vars(getattr(frameid, cls)) if not n.startswith("_")}
+        # Every public member has a stub and every stub a member (a
+        # subclass's stub lists its own members only).
+        assert runtime <= stubbed, (cls, runtime - stubbed)
+        assert stubbed - {"__init__", "__len__"} <= runtime, (cls, stubbed - runtime)
