@@ -13,18 +13,26 @@ interpreter, every result pickles, and every error raises :class:`Error` (a
 >>> res.mass, res.stiffness, res.damping_mkr, res.damping_rayleigh    # numpy arrays
 >>> res.modes[0].frequency_hz, res.uncertainty.mass_std
 >>> frameid.identify(camp, refine=True).refined.damping_std
+>>> frfs = frameid.frf(camp, exponential_end=0.01)                     # FRFs with coherence
+>>> frameid.identify_frf(frfs).mass, frfs.write("frf.uff")
 
 Functions: :func:`read_records`, :func:`identify`, :func:`identify_realization`,
-:func:`simulate`, :func:`bound`, :func:`sweep`, :func:`merge`, :func:`report`.
+:func:`simulate`, :func:`bound`, :func:`sweep`, :func:`merge`, :func:`report`;
+the FRF route: :func:`frf`, :func:`read_frf`, :func:`identify_frf`.
 Classes: :class:`Campaign`, :class:`Identification` (with :class:`Mode`,
 :class:`Uncertainty`, :class:`Refined`, :class:`RefinedMode`), :class:`Truth`,
-:class:`Bound`, :class:`Sweep`.
+:class:`Bound`, :class:`Sweep`; :class:`FrfSet` (and :class:`FrfResult`),
+:class:`FrfIdentification` (with :class:`FrfRefined`).
 """
 
 from ._native import (
     Bound,
     Campaign,
     Error,
+    FrfIdentification,
+    FrfRefined,
+    FrfResult,
+    FrfSet,
     Identification,
     Mode,
     Refined,
@@ -34,9 +42,12 @@ from ._native import (
     Uncertainty,
     __version__,
     bound,
+    frf,
     identify,
+    identify_frf,
     identify_realization,
     merge,
+    read_frf,
     read_records,
     report,
     simulate,
@@ -47,6 +58,10 @@ __all__ = [
     "Bound",
     "Campaign",
     "Error",
+    "FrfIdentification",
+    "FrfRefined",
+    "FrfResult",
+    "FrfSet",
     "Identification",
     "Mode",
     "Refined",
@@ -56,9 +71,12 @@ __all__ = [
     "Uncertainty",
     "__version__",
     "bound",
+    "frf",
     "identify",
+    "identify_frf",
     "identify_realization",
     "merge",
+    "read_frf",
     "read_records",
     "report",
     "simulate",

@@ -2,6 +2,7 @@
 native module frameid._native; see their docstrings)."""
 
 import os
+import pathlib
 from collections.abc import Sequence
 from typing import Any
 
@@ -285,6 +286,216 @@ class Identification:
     @property
     def collocated(self) -> tuple[int, int]: ...
 
+_Point = str | tuple[str, int, int | str]
+
+class FrfSet:
+    """FRFs: values[k, i, j] is response i over reference j at frequency_hz[k], SI."""
+
+    def __init__(
+        self,
+        frequency_hz: npt.ArrayLike,
+        values: npt.ArrayLike,
+        *,
+        quantity: str = "accelerance",
+        coherence: npt.ArrayLike | None = None,
+        averages: int | None = None,
+        responses: str | Sequence[_Point] | None = None,
+        references: str | Sequence[_Point] | None = None,
+        collocated: tuple[_Pick, _Pick] | str | Sequence[tuple[_Pick, _Pick] | str] | None = None,
+        exponential_tau_s: float | None = None,
+    ) -> None:
+        """frequency_hz (lines,); values complex (lines, outputs, references);
+        coherence real, same shape; points 'name' or 'name@node:dir' or
+        (name, node, direction)."""
+
+    @property
+    def frequency_hz(self) -> _F64: ...
+    @property
+    def values(self) -> _C128:
+        """(lines, outputs, references), SI unit of `quantity`."""
+
+    @property
+    def coherence(self) -> _F64 | None:
+        """(lines, outputs, references) or None."""
+
+    @property
+    def quantity(self) -> str:
+        """accelerance, mobility or receptance."""
+
+    @property
+    def unit(self) -> str: ...
+    @property
+    def averages(self) -> int | None: ...
+    @property
+    def exponential_tau_s(self) -> float | None: ...
+    @property
+    def outputs(self) -> list[str]: ...
+    @property
+    def references(self) -> list[str]: ...
+    @property
+    def response_points(self) -> list[dict[str, Any]]:
+        """name, node, direction (None where unknown)."""
+
+    @property
+    def reference_points(self) -> list[dict[str, Any]]: ...
+    @property
+    def collocated(self) -> list[tuple[int, int]]:
+        """Detected or given (output, reference) pairs, zero-based."""
+
+    @property
+    def files(self) -> list[str]: ...
+    @property
+    def lines(self) -> int: ...
+    def write(self, path: _Path, format: str = "uff") -> pathlib.Path:
+        """uff, uff-binary, csv or csv-complex."""
+
+    def __len__(self) -> int: ...
+
+class FrfResult(FrfSet):
+    """FRFs estimated from a campaign, with what `frameid frf` reports."""
+
+    @property
+    def estimator(self) -> str: ...
+    @property
+    def excitation(self) -> str:
+        """hammer or continuous."""
+
+    @property
+    def hits_used(self) -> int: ...
+    @property
+    def dropped(self) -> list[str]: ...
+    @property
+    def block_len(self) -> int: ...
+    @property
+    def resolution_hz(self) -> float: ...
+    @property
+    def model_checks(self) -> bool: ...
+    @property
+    def windows(self) -> dict[str, Any]: ...
+    @property
+    def hit_quality(self) -> list[dict[str, Any]]: ...
+    @property
+    def warnings(self) -> list[str]: ...
+
+class FrfRefined:
+    """Maximum-likelihood M, K and damping on the FRFs, with standard errors."""
+
+    @property
+    def mass(self) -> _F64: ...
+    @property
+    def stiffness(self) -> _F64: ...
+    @property
+    def damping(self) -> _F64: ...
+    @property
+    def mass_std(self) -> _F64: ...
+    @property
+    def stiffness_std(self) -> _F64: ...
+    @property
+    def damping_std(self) -> _F64: ...
+    @property
+    def modes(self) -> list[RefinedMode]: ...
+    @property
+    def noise_model(self) -> str: ...
+    @property
+    def reference_dofs(self) -> list[int]: ...
+    @property
+    def iterations(self) -> int: ...
+    @property
+    def stop(self) -> str: ...
+    @property
+    def converged(self) -> bool: ...
+    @property
+    def initial_cost(self) -> float: ...
+    @property
+    def cost(self) -> float: ...
+    @property
+    def observations(self) -> int: ...
+    @property
+    def unknowns(self) -> int: ...
+    @property
+    def band_hz(self) -> tuple[float, float]: ...
+    @property
+    def lines(self) -> int: ...
+    @property
+    def parameter_labels(self) -> list[str]: ...
+    @property
+    def parameters(self) -> _F64: ...
+    @property
+    def covariance(self) -> _F64: ...
+
+class FrfIdentification:
+    """Modes, M, K and damping from FRFs, with the checks and the diagram."""
+
+    @property
+    def mass(self) -> _F64: ...
+    @property
+    def stiffness(self) -> _F64: ...
+    @property
+    def damping_mkr(self) -> _F64: ...
+    @property
+    def damping_rayleigh(self) -> _F64: ...
+    @property
+    def modes(self) -> list[Mode]: ...
+    @property
+    def used_modes(self) -> list[int]: ...
+    @property
+    def out_of_model_modes(self) -> list[int]: ...
+    @property
+    def frequencies_hz(self) -> _F64: ...
+    @property
+    def damping_ratios(self) -> _F64: ...
+    @property
+    def mode_shapes(self) -> _C128:
+        """Outputs × modes used."""
+
+    @property
+    def rayleigh_alpha(self) -> float: ...
+    @property
+    def rayleigh_beta(self) -> float: ...
+    @property
+    def consistency(self) -> float: ...
+    @property
+    def polarity_flipped(self) -> bool: ...
+    @property
+    def model_order(self) -> int:
+        """The pLSCF order used."""
+
+    @property
+    def exponential_tau_s(self) -> float | None: ...
+    @property
+    def quantity(self) -> str: ...
+    @property
+    def stabilization(self) -> dict[str, Any]:
+        """order, frequency_hz, damping_ratio (arrays), status (list), physical (array)."""
+
+    @property
+    def rejected_modes(self) -> list[dict[str, Any]]: ...
+    @property
+    def checks(self) -> dict[str, list[dict[str, Any]]]:
+        """coherence and reciprocity, as `checks` of `frameid identify --json`."""
+
+    @property
+    def warnings(self) -> list[str]: ...
+    @property
+    def refined(self) -> FrfRefined | None: ...
+    @property
+    def files(self) -> list[str]: ...
+    @property
+    def outputs(self) -> list[str]: ...
+    @property
+    def references(self) -> list[str]: ...
+    @property
+    def collocated(self) -> tuple[int, int]: ...
+    @property
+    def lines(self) -> int: ...
+    @property
+    def band_hz(self) -> tuple[float, float]: ...
+    def write_modes(self, path: _Path) -> pathlib.Path:
+        """UFF55 of the modes used (modes.uff of --export)."""
+
+    def model_frf(self, frequency_hz: npt.ArrayLike) -> FrfSet:
+        """The model's accelerance for each placed reference (model_frf.uff of --export)."""
+
 class Truth:
     """Known truth of a simulated campaign (truth.json)."""
 
@@ -430,6 +641,45 @@ def identify_realization(
     intersample: str = "bandlimited",
 ) -> Identification:
     """`frameid identify --realization FILE`."""
+
+def frf(
+    campaign: Campaign,
+    *,
+    estimator: str = "H1",
+    averaging: str = "auto",
+    segment: int | None = None,
+    force_window_s: float | None = None,
+    exponential_end: float | None = None,
+    band_hz: tuple[float, float] | None = None,
+    strict: bool = False,
+    collocated: tuple[_Pick, _Pick] | Sequence[_Pick] | str | None = None,
+    excitation: str = "auto",
+) -> FrfResult:
+    """`frameid frf`: screened FRFs of a campaign with coherence."""
+
+def read_frf(
+    paths: _Path | Sequence[_Path],
+    *,
+    quantity: str | None = None,
+    unit: str | None = None,
+    reference: _Point | Sequence[_Point] | None = None,
+    responses: str | Sequence[_Point] | None = None,
+) -> FrfSet:
+    """FRF files (UFF58, CSV) collated as `frameid identify FILES` does."""
+
+def identify_frf(
+    frfs: FrfSet,
+    *,
+    band_hz: tuple[float, float] | None = None,
+    order: int | None = None,
+    modes: Sequence[float] | None = None,
+    collocated: tuple[_Pick, _Pick] | Sequence[_Pick] | str | None = None,
+    exponential_tau_s: float | None = None,
+    refine: bool = False,
+    parametrization: str = "full",
+    strict: bool = False,
+) -> FrfIdentification:
+    """`frameid identify` on FRF files: checks, pLSCF, LSFD, MKR, Rayleigh (and refinement)."""
 
 def simulate(
     scenario: _Path,

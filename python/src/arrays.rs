@@ -72,3 +72,21 @@ pub fn to_python<'py, T: serde::Serialize>(
     let text = serde_json::to_string(value).map_err(|e| error(format!("cannot convert: {e}")))?;
     json(py, &text)
 }
+
+/// `obj` as an owned complex array (through
+/// `numpy.asarray(obj, dtype=complex)`); `what` names the argument in
+/// messages.
+pub fn c128_array(
+    py: Python<'_>,
+    obj: &Bound<'_, PyAny>,
+    what: &str,
+) -> PyResult<ArrayD<Complex64>> {
+    let np = py.import("numpy")?;
+    let converted = np
+        .call_method1("asarray", (obj, np.getattr("complex128")?))
+        .map_err(|e| error(format!("{what}: not an array of (complex) numbers ({e})")))?;
+    let array = converted
+        .cast_into::<PyArrayDyn<Complex64>>()
+        .map_err(|e| error(format!("{what}: not an array of (complex) numbers ({e})")))?;
+    Ok(array.readonly().as_array().to_owned())
+}

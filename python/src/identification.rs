@@ -381,6 +381,13 @@ pub struct Mode {
 }
 
 impl Mode {
+    /// One mode of an identification (either route); `used` by MKR.
+    pub fn new(mode: ident::Mode, used: bool) -> Self {
+        Mode {
+            state: ModeState { mode, used },
+        }
+    }
+
     pub fn from_state(bytes: &[u8]) -> PyResult<Self> {
         Ok(Mode {
             state: from_state(bytes)?,
@@ -734,6 +741,11 @@ pub struct RefinedMode {
 }
 
 impl RefinedMode {
+    /// A refined mode (either route).
+    pub fn new(state: ModalEstimate) -> Self {
+        RefinedMode { state }
+    }
+
     pub fn from_state(bytes: &[u8]) -> PyResult<Self> {
         Ok(RefinedMode {
             state: from_state(bytes)?,
@@ -815,7 +827,7 @@ fn extract_pick(obj: &Bound<'_, PyAny>) -> PyResult<Pick> {
 /// `collocated` as `(output, input)` indices among the names (as the
 /// command line's `--collocated OUT:IN`): a pair of zero-based indices or
 /// channel names, or the text `"OUT:IN"`.
-fn resolve_collocated(
+pub fn resolve_collocated(
     collocated: Option<&Bound<'_, PyAny>>,
     outputs: &[String],
     inputs: &[String],

@@ -9,6 +9,8 @@
 //! - [`simulation`]: `simulate` (a campaign with its truth) and `bound`
 //!   (the Cramér–Rao bound of a scenario).
 //! - [`sweeps`]: `sweep`, `merge` of shards and `report`.
+//! - [`frf`]: the FRF route: `frf` (FRFs of a campaign), `read_frf`,
+//!   `FrfSet` (from arrays) and `identify_frf`.
 //!
 //! Errors raise `frameid.Error` (a `ValueError`) with the message the
 //! command line prints; a panic in the libraries (a bug) is caught and
@@ -25,6 +27,7 @@ use pyo3::types::PyBytes;
 
 mod arrays;
 mod campaign;
+mod frf;
 mod identification;
 mod simulation;
 mod sweeps;
@@ -118,6 +121,10 @@ fn _restore(py: Python<'_>, class: &str, state: &[u8]) -> PyResult<Py<PyAny>> {
         "Truth" => Py::new(py, Truth::from_state(state)?)?.into_any(),
         "Bound" => Py::new(py, CramerRao::from_state(state)?)?.into_any(),
         "Sweep" => Py::new(py, Sweep::from_state(state)?)?.into_any(),
+        "FrfSet" => Py::new(py, frf::FrfSet::from_state(state)?)?.into_any(),
+        "FrfResult" => frf::FrfResult::restore(py, state)?.into_any(),
+        "FrfIdentification" => Py::new(py, frf::FrfIdentification::from_state(state)?)?.into_any(),
+        "FrfRefined" => Py::new(py, frf::FrfRefined::from_state(state)?)?.into_any(),
         other => return Err(error(format!("cannot unpickle: unknown class {other}"))),
     };
     Ok(obj)
@@ -131,6 +138,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(_restore, m)?)?;
     campaign::register(m)?;
+    frf::register(m)?;
     identification::register(m)?;
     simulation::register(m)?;
     sweeps::register(m)?;

@@ -48,3 +48,10 @@ def test_identify_with_refinement_releases_the_interpreter(case1):
 
 def test_sweep_releases_the_interpreter():
     check(lambda: frameid.sweep(CASE1, noise=[0.01], trials=4, seed=2, threads=1))
+
+
+def test_frf_estimation_and_identification_release_the_interpreter(case1):
+    camp, _ = case1
+    frfs = frameid.frf(camp, exponential_end=0.01)
+    check(lambda: [frameid.frf(camp, exponential_end=0.01) for _ in range(10)])
+    check(lambda: [frameid.identify_frf(frfs, refine=True) for _ in range(10)])
