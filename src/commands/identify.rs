@@ -439,6 +439,7 @@ fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
     let settings = FrfAnalysisSettings {
         identifier,
         strict: args.strict,
+        uncertainty: !args.no_uncertainty,
         refine: args.refine.then_some(args.parametrization),
     };
     let analysis = analyze_frfs(frf, &reference_outputs, &settings)?;
