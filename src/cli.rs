@@ -170,6 +170,12 @@ pub struct IdentifyArgs {
     /// What excites the records: `hammer`, `continuous` (a shaker: random, burst random, chirp, swept sine) or `auto` (judged per record from the force's crest factor; reported)
     #[arg(long, default_value = "auto")]
     pub excitation: records::quality::Excitation,
+    /// Decimate records sampled far above the modes' band before identification: `auto` (the factor that keeps the highest mode of the records' FRFs below 0.4 of the new Nyquist frequency), `off`, or a factor N
+    #[arg(long, default_value = "auto")]
+    pub decimate: study::decimate::DecimationSetting,
+    /// What the state is at the start of every record: `auto` (at rest unless continuous records show motion before the force starts, or a misfit that stands out at their start), `at-rest`, or `unknown` (OKID drops the first equations of every record)
+    #[arg(long, default_value = "auto")]
+    pub initial_state: study::analysis::InitialStateSetting,
     /// Refuse the campaign if any hit fails a quality check (double hit, clipping, long pulse, undecayed response, low SNR) or is inconsistent with the other hits (dead, copied or spiked channel, duplicate record, level, spectrum or residual against the joint model; without --strict such hits are dropped with a warning)
     #[arg(long, conflicts_with = "drop_bad_hits")]
     pub strict: bool,

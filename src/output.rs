@@ -343,6 +343,18 @@ pub struct IdentifyReport {
     /// M without the known sensor masses (with `--sensor-mass`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub without_sensors: Option<WithoutSensors>,
+    /// The decimation before identification (absent when the records were
+    /// identified at their own rate by `--decimate auto` or `off`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub decimation: Option<study::decimate::Decimation>,
+    /// The initial state assumed and why (absent when nothing was judged:
+    /// hammer records under `--initial-state auto`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub initial_state: Option<study::analysis::InitialStateReport>,
+    /// Shortest record identified, samples (the source's `samples` is the
+    /// longest).
+    #[serde(skip)]
+    shortest: usize,
 }
 
 impl IdentifyReport {
@@ -405,6 +417,9 @@ impl IdentifyReport {
             mkr_modes: r.mkr_modes.clone(),
             refined: None,
             without_sensors: None,
+            decimation: None,
+            initial_state: None,
+            shortest: 0,
         }
     }
 
@@ -439,6 +454,10 @@ impl IdentifyReport {
         report.uncertainty = a.uncertainty.clone();
         report.uncertainty_skipped = a.uncertainty_skipped.clone();
         report.refined = a.refinement.as_ref().map(RefinedReport::new);
+        report.decimation = (a.decimation.factor > 1 || a.decimation.chosen == "given")
+            .then(|| a.decimation.clone());
+        report.initial_state = a.initial_state.clone();
+        report.shortest = c.records.iter().map(|r| r.len()).min().unwrap_or(0);
         report
     }
 
@@ -453,12 +472,46 @@ impl IdentifyReport {
                 sig(s.dt_s, 6)
             ));
         } else {
+            let samples = if self.shortest > 0 && self.shortest < s.samples {
+                format!("{}-{}", self.shortest, s.samples)
+            } else {
+                s.samples.to_string()
+            };
             out.push_str(&format!(
-                "{} record(s), {} samples, dt = {} s ({} Hz)\n",
+                "{} record(s), {samples} samples, dt = {} s ({} Hz)\n",
                 s.hits,
-                s.samples,
                 sig(s.dt_s, 6),
                 sig(1.0 / s.dt_s, 6)
+            ));
+        }
+        if let Some(d) = &self.decimation {
+            let filter = d.filter.as_ref().map_or(String::new(), |f| {
+                format!(
+                    "; zero-phase Kaiser FIR, {} taps, pass band to {} Hz, stop band from {} Hz at {} dB",
+                    f.taps,
+                    sig(f.passband_hz, 4),
+                    sig(f.stopband_hz, 4),
+                    f.attenuation_db
+                )
+            });
+            out.push_str(&format!(
+                "decimation: factor {} ({}), {} Hz to {} Hz{filter}: {}\n",
+                d.factor,
+                d.chosen,
+                sig(d.original_rate_hz, 6),
+                sig(d.rate_hz, 6),
+                d.reason
+            ));
+        }
+        if let Some(i) = &self.initial_state {
+            out.push_str(&format!(
+                "initial state: {} ({}): {}\n",
+                match i.assumed {
+                    ident::InitialState::AtRest => "at rest",
+                    _ => "unknown",
+                },
+                i.chosen,
+                i.reason
             ));
         }
         out.push_str(&format!(
@@ -477,6 +530,7 @@ impl IdentifyReport {
         }
         if !self.hit_quality.is_empty() {
             out.push_str(&self.quality_table());
+            out.push_str(&self.band_snr_table());
         }
         out.push_str(&format!("model order {}\n", self.model_order));
         let u = self.uncertainty.as_ref();
@@ -607,6 +661,45 @@ impl IdentifyReport {
             for w in &self.warnings {
                 out.push_str(&format!("  - {w}\n"));
             }
+        }
+        out
+    }
+
+    /// The SNR per octave band of continuous records (empty without any).
+    fn band_snr_table(&self) -> String {
+        let mut out = String::new();
+        for q in &self.hit_quality {
+            for ch in &q.snr_bands {
+                if out.is_empty() {
+                    out.push_str(&format!(
+                        "SNR per octave band from the coherence, dB (gamma^2 / (1 - gamma^2); * below {} dB, ( ) not excited by the force)\n",
+                        records::quality::QualitySettings::default().min_band_snr_db
+                    ));
+                }
+                let cells: Vec<String> = ch
+                    .bands
+                    .iter()
+                    .map(|b| {
+                        let v = format!(
+                            "{}-{} Hz {:.0}{}",
+                            sig(b.low_hz, 3),
+                            sig(b.high_hz, 3),
+                            b.snr_db,
+                            if b.low { "*" } else { "" }
+                        );
+                        if b.excited { v } else { format!("({v})") }
+                    })
+                    .collect();
+                out.push_str(&format!(
+                    "  {} {}: {}\n",
+                    q.file,
+                    ch.channel,
+                    cells.join(", ")
+                ));
+            }
+        }
+        if !out.is_empty() {
+            out.push('\n');
         }
         out
     }

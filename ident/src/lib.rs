@@ -95,7 +95,7 @@ pub use frf::{Frf, FrfError, FrfQuantity};
 pub use jackknife::{Jackknife, UncertaintyError, jackknife, leave_one_out};
 pub use mkr::{CollocatedPair, Mkr, MkrError, MkrParams, PolarityPolicy};
 pub use modal::{Indicators, Intersample, ModalModel, ModalParams, Mode, StructuralRule};
-pub use okid::{ObserverOrder, Okid, OkidError, OkidParams};
+pub use okid::{InitialState, ObserverOrder, Okid, OkidError, OkidParams};
 
 pub use pipeline::{
     Error, Identification, Identifier, MAX_MODE_SUBSETS, ModeSelection, SelectionRule,

@@ -614,10 +614,38 @@ pub fn check_consistency(
         if med <= 0.0 {
             continue;
         }
+        // Records of different lengths: a level of its own (not per unit of
+        // force) is an RMS, which is the right measure for a stationary
+        // (shaker) signal but falls as 1/sqrt(N) for a transient of fixed
+        // energy (a hammer pulse, a free decay) in a longer record. Such a
+        // level is flagged only when its root energy is off the median too:
+        // like is compared with like whatever the excitation. Outputs per
+        // unit of force are ratios of two levels of one record, where the
+        // length cancels. With equal lengths both measures agree.
+        let own_level = input || n_in == 0;
+        let root_energy = |k: usize| values[k].map(|v| v * (data[k][j].values.len() as f64).sqrt());
+        let energy_med = if own_level {
+            median(
+                &distinct
+                    .iter()
+                    .filter_map(|&k| root_energy(k))
+                    .collect::<Vec<_>>(),
+            )
+        } else {
+            0.0
+        };
+        let within =
+            |ratio: f64| ratio <= settings.level_factor && ratio >= 1.0 / settings.level_factor;
         for k in 0..hits {
             let Some(v) = values[k] else { continue };
             let ratio = v / med;
-            if ratio <= settings.level_factor && ratio >= 1.0 / settings.level_factor {
+            if within(ratio) {
+                continue;
+            }
+            if own_level
+                && energy_med > 0.0
+                && root_energy(k).is_some_and(|e| within(e / energy_med))
+            {
                 continue;
             }
             let s = &data[k][j];

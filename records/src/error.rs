@@ -616,16 +616,11 @@ fn ord_type_name(t: i64) -> &'static str {
     }
 }
 
-/// How two records of a campaign differ.
+/// How two records of a campaign differ (records of different lengths are
+/// one campaign: only the sampling must agree).
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum CampaignMismatch {
-    /// Different numbers of samples.
-    Length {
-        /// Samples of the reference (first) record.
-        reference: usize,
-        /// Samples of the other record.
-        other: usize,
-    },
     /// Sampling intervals that differ by more than
     /// [`CAMPAIGN_DT_REL_TOL`](crate::CAMPAIGN_DT_REL_TOL) relative.
     SamplingInterval {
@@ -639,10 +634,6 @@ pub enum CampaignMismatch {
 fn campaign_message(reference: &Path, other: &Path, mismatch: &CampaignMismatch) -> String {
     let (r, o) = (reference.display(), other.display());
     match mismatch {
-        CampaignMismatch::Length {
-            reference: nr,
-            other: no,
-        } => format!("campaign records differ in length: {o} has {no} samples but {r} has {nr}"),
         CampaignMismatch::SamplingInterval {
             reference_s,
             other_s,

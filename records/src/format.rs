@@ -175,9 +175,10 @@ pub fn read_record(path: &Path, opts: &ReadOptions) -> Result<RecordFile, Record
 /// rate read from UFF and from a CSV time column can differ by 5e-6.
 pub const CAMPAIGN_DT_REL_TOL: f64 = 1e-5;
 
-/// Reads the records of one test campaign (several hits) and checks that
-/// they have the same length and sampling interval; the error names the
-/// first file and the one that differs.
+/// Reads the records of one test campaign (several hits or runs) and checks
+/// that they have the same sampling interval; the error names the first file
+/// and the one that differs. Records may differ in length (runs of a shaker
+/// test often do): everything downstream takes records of any lengths.
 pub fn read_campaign<P: AsRef<Path>>(
     paths: &[P],
     opts: &ReadOptions,
@@ -190,19 +191,15 @@ pub fn read_campaign<P: AsRef<Path>>(
     Ok(records)
 }
 
-/// Checks that records have the same length and sampling interval (within
-/// [`CAMPAIGN_DT_REL_TOL`]), the first one being the reference.
+/// Checks that records have the same sampling interval (within
+/// [`CAMPAIGN_DT_REL_TOL`]), the first one being the reference. Their
+/// lengths may differ.
 pub fn check_campaign(records: &[RecordFile]) -> Result<(), RecordError> {
     let Some((first, rest)) = records.split_first() else {
         return Err(RecordError::EmptyCampaign);
     };
     for r in rest {
-        let mismatch = if r.len() != first.len() {
-            Some(CampaignMismatch::Length {
-                reference: first.len(),
-                other: r.len(),
-            })
-        } else if (r.dt_s - first.dt_s).abs() > CAMPAIGN_DT_REL_TOL * first.dt_s {
+        let mismatch = if (r.dt_s - first.dt_s).abs() > CAMPAIGN_DT_REL_TOL * first.dt_s {
             Some(CampaignMismatch::SamplingInterval {
                 reference_s: first.dt_s,
                 other_s: r.dt_s,

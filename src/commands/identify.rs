@@ -270,6 +270,8 @@ fn identify_records(args: &IdentifyArgs, modes: ident::ModeSelection) -> Result<
         },
         uncertainty: !args.no_uncertainty,
         refine: args.refine.then_some(args.parametrization),
+        decimation: args.decimate,
+        initial_state: args.initial_state,
         ..AnalysisSettings::default()
     };
     let analysis = analyze_located(&campaign, &ByLine(&files), &settings)?;

@@ -159,7 +159,16 @@ pub fn time_report(
     let id = &analysis.identification;
     let c = &analysis.campaign;
     let mut warnings = analysis.warnings.clone();
-    let samples = c.records.first().map_or(0, |r| r.outputs.ncols());
+    let lengths: Vec<usize> = c.records.iter().map(|r| r.outputs.ncols()).collect();
+    // Runs of different lengths: Welch segments fit the shortest, hits are
+    // zero-padded to the longest.
+    let samples = lengths.iter().copied().min().unwrap_or(0);
+    let longest = lengths.iter().copied().max().unwrap_or(0);
+    let samples_text = if samples == longest {
+        format!("{samples} samples per record")
+    } else {
+        format!("{samples}-{longest} samples per record")
+    };
     let continuous = analysis
         .hit_quality
         .iter()
@@ -208,7 +217,7 @@ pub fn time_report(
         setup_row(
             "Sampling",
             format!(
-                "{} Hz ({} s), {samples} samples per record",
+                "{} Hz ({} s), {samples_text}",
                 reports_sig(1.0 / c.dt_s),
                 reports_sig(c.dt_s)
             ),
@@ -304,6 +313,13 @@ pub fn time_report(
             .max(MIN_WELCH_SEGMENT)
             .min(samples);
         FrfParams::welch(segment)
+    } else if samples != longest {
+        FrfParams::hits().averaging(ident::frf::estimate::Averaging::Hits(
+            ident::frf::estimate::HitAveraging {
+                block_len: Some(longest),
+                ..Default::default()
+            },
+        ))
     } else {
         FrfParams::hits()
     };

@@ -129,7 +129,20 @@ pub fn estimate_frfs(
     let (kept, dropped, hit_quality, mut warnings, model_checks) = match analyze_located(
         campaign, locate, &analysis,
     ) {
-        Ok(a) => (a.campaign, a.dropped, a.hit_quality, a.warnings, true),
+        // The FRFs of the records as read (the identification may have
+        // decimated them or cut their start).
+        Ok(a) => {
+            let keep: Vec<usize> = (0..campaign.len())
+                .filter(|i| !a.dropped.contains(i))
+                .collect();
+            (
+                campaign.subset(&keep),
+                a.dropped,
+                a.hit_quality,
+                a.warnings,
+                true,
+            )
+        }
         Err(
             e @ (AnalysisError::Identification { .. }
             | AnalysisError::TooFewOutputs { .. }
@@ -175,8 +188,14 @@ pub fn estimate_frfs(
         .enumerate()
         .filter(|(i, _)| !dropped.contains(i))
         .any(|(_, q)| q.excitation == Excitation::Continuous);
+    // Runs may differ in length: Welch segments must fit the shortest, and
+    // hits of different lengths are zero-padded to the longest (one grid of
+    // lines for all). Equal lengths are averaged as they are.
     let lengths: Vec<usize> = kept.records.iter().map(|r| r.outputs.ncols()).collect();
-    let shortest = lengths.iter().copied().min().unwrap_or(0);
+    let samples = lengths.iter().copied().min().unwrap_or(0);
+    let longest = lengths.iter().copied().max().unwrap_or(0);
+    let pad_to = (samples != longest).then_some(longest);
+    let shortest = samples;
     let welch = |len: Option<usize>| {
         let len = len.unwrap_or_else(|| {
             let averages = |p: usize| -> usize {
@@ -196,7 +215,7 @@ pub fn estimate_frfs(
         Averaging::Welch(WelchAveraging::new(len))
     };
     let hits = Averaging::Hits(HitAveraging {
-        block_len: None,
+        block_len: pad_to,
         force_window: settings.force_window,
         exponential_window: settings.exponential_window,
     });

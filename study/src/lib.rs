@@ -22,6 +22,8 @@
 //!   of the FRFs (coherence, reciprocity).
 //! - [`frfs`]: FRFs and coherence of a screened campaign of records
 //!   (`frameid frf`).
+//! - [`decimate`]: decimation of records sampled far above the modes'
+//!   band, before identification.
 //! - [`report`]: sweep directories into the `reports` crate's data model.
 //! - [`campaign_dir`] and [`truth`]: a simulated campaign on disk.
 //!
@@ -52,6 +54,7 @@
 pub mod analysis;
 pub mod campaign_dir;
 pub mod campaign_report;
+pub mod decimate;
 mod error;
 pub mod experiment;
 pub mod export;

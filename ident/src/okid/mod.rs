@@ -14,6 +14,15 @@
 //! pulse). An equation that needs an input sample after the end of a record (only with leads)
 //! is not formed. All records are stacked into one least-squares problem.
 //!
+//! Records that do not start at rest (a shaker already running, ambient vibration, a
+//! record cut out of a longer one) break that form: their first equations read zeros where
+//! the unknown past had motion. With [`InitialState::Unknown`] the first `p_max` equations
+//! of every record (`p_max` the largest observer order tried) are not formed; their samples
+//! still serve as regressors of the later equations. For a deadbeat observer of order `p`
+//! the ARX model holds exactly from sample `p` on whatever the initial state (its effect is
+//! `C (A + G C)^n x_0 = 0` for `n >= p`), and for the least-squares observer it has decayed
+//! with the observer's poles, so nothing but `p_max` equations per record is lost.
+//!
 //! The noncausal leads model band-limited records: the exact discrete relation for an
 //! anti-aliased and sampled signal pair is `y[n] = sum_k g[k] u[n-k]` with
 //! `g[k] = dt h_bl(k dt)`, the band-limited impulse response, which has small terms at
@@ -84,6 +93,19 @@ pub enum ObserverOrder {
     },
 }
 
+/// What OKID assumes about the state at the start of every record.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum InitialState {
+    /// At rest before the first sample: every sample gives an equation, with zeros before
+    /// the record (hammer records with a pre-trigger, or starting at the hit).
+    #[default]
+    AtRest,
+    /// Unknown (the structure may already move): the first `p_max` equations of every
+    /// record are not formed (see the module docs).
+    Unknown,
+}
+
 /// OKID parameters.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct OkidParams {
@@ -97,6 +119,9 @@ pub struct OkidParams {
     pub max_rcond_raises: usize,
     /// Number of system Markov parameters to return (`Y_0 .. Y_{markov_count-1}`).
     pub markov_count: usize,
+    /// The state at the start of every record.
+    #[serde(default)]
+    pub initial_state: InitialState,
 }
 
 /// Floor of the relative residual norm used by the automatic order.
@@ -119,6 +144,7 @@ impl OkidParams {
             rcond: 1e-8,
             max_rcond_raises: 4,
             markov_count: 400,
+            initial_state: InitialState::AtRest,
         }
     }
 
@@ -149,6 +175,21 @@ impl OkidParams {
     pub fn rcond(mut self, rcond: f64) -> Self {
         self.rcond = rcond;
         self
+    }
+
+    /// Sets what is assumed about the state at the start of every record.
+    pub fn initial_state(mut self, initial_state: InitialState) -> Self {
+        self.initial_state = initial_state;
+        self
+    }
+
+    /// Equations not formed at the start of every record: the largest observer order for
+    /// [`InitialState::Unknown`], none at rest.
+    pub fn skipped_equations(&self) -> usize {
+        match self.initial_state {
+            InitialState::AtRest => 0,
+            InitialState::Unknown => self.max_order(),
+        }
     }
 
     /// Sets the number of Markov parameters returned.
@@ -205,19 +246,20 @@ impl OkidParams {
             m,
             q: self.leads,
             p: self.max_order(),
+            skip: self.skipped_equations(),
         }
     }
 
     /// Every record must be long enough for the largest order and the leads.
     pub(crate) fn check_lengths(&self, records: &[&Record]) -> Result<(), OkidError> {
-        let required = self.max_order() + self.leads + 1;
+        let required = self.max_order() + self.leads + 1 + self.skipped_equations();
         for (index, rec) in records.iter().enumerate() {
             if rec.len() < required {
                 return Err(DataError::TooShort {
                     record: index,
                     samples: rec.len(),
                     required,
-                    reason: "observer order plus leads plus one",
+                    reason: "observer order plus leads plus one (plus the observer order for an unknown initial state)",
                 }
                 .into());
             }
@@ -237,7 +279,9 @@ impl OkidParams {
         self.check()?;
         let lay = moments.layout;
         assert!(
-            lay.q == self.leads && lay.p >= self.max_order(),
+            lay.q == self.leads
+                && lay.p >= self.max_order()
+                && lay.skip == self.skipped_equations(),
             "OKID moments built for another layout"
         );
         let layout = Layout {
@@ -638,6 +682,8 @@ pub(crate) struct Layout {
     m: usize,
     q: usize,
     p: usize,
+    /// Equations not formed at the start of every record (unknown initial state).
+    skip: usize,
 }
 
 impl Layout {
@@ -722,7 +768,7 @@ fn triangular_factor(
         let rows = rec.len() - q;
         let u = |ch: usize, n: usize| rec.inputs[(ch, n)] / s.u[ch];
         let y = |ch: usize, n: usize| rec.outputs[(ch, n)] / s.y[ch];
-        let mut start = 0;
+        let mut start = layout.skip;
         while start < rows {
             let len = (rows - start).min(ROWS_PER_BLOCK);
             let top = rfac.nrows();
@@ -731,6 +777,7 @@ fn triangular_factor(
             for row in 0..len {
                 let n = start + row;
                 let zr = top + row;
+                debug_assert!(n < rows);
                 for t in 0..q {
                     for ch in 0..r {
                         z[(zr, t * r + ch)] = u(ch, n + q - t);

@@ -136,7 +136,8 @@ impl Moments {
         let (r, m, q, p) = (layout.r, layout.m, layout.q, layout.p);
         let nch = r + m;
         let len = rec.len();
-        assert!(len > p + q, "OKID moments: record too short");
+        let skip = layout.skip;
+        assert!(len > p + q + skip, "OKID moments: record too short");
         let n_eq = len - q;
         let x = |ch: usize, k: usize| -> f64 {
             if ch < r {
@@ -196,9 +197,10 @@ impl Moments {
                 };
                 // Sum over k (sample of channel a) of x_a[k] x_b[k + d]: the full
                 // correlation runs over max(0, -d) ..= min(len - 1, len - 1 - d); the
-                // regression over max(0, -d, -l1) ..= n_eq - 1 - l1.
+                // regression over max(0, -d, skip - l1) ..= n_eq - 1 - l1 (equations
+                // n = skip .. n_eq - 1, sample k = n - l1 of channel a).
                 let full_lo = 0.max(-d);
-                let lo = full_lo.max(-l1);
+                let lo = full_lo.max(skip as isize - l1);
                 let full_hi = (len_i - 1).min(len_i - 1 - d);
                 let hi = n_eq_i - 1 - l1;
                 let mut outside = 0.0;
@@ -219,7 +221,7 @@ impl Moments {
             gram,
             channel_ss,
             samples: len,
-            equations: n_eq,
+            equations: n_eq - skip,
         }
     }
 

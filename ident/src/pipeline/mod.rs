@@ -39,7 +39,7 @@ use crate::era::{Correlation, EraError, EraParams, HankelShape, ModelOrder};
 use crate::linalg::{self, C64};
 use crate::mkr::{CollocatedPair, MkrError, MkrParams, PolarityPolicy};
 use crate::modal::{Intersample, ModalError, ModalModel, ModalParams, Mode, StructuralRule};
-use crate::okid::{Moments, ObserverOrder, OkidError, OkidParams};
+use crate::okid::{InitialState, Moments, ObserverOrder, OkidError, OkidParams};
 use crate::rayleigh::{Rayleigh, RayleighError};
 use crate::record::{self, DataError, Record};
 use crate::statespace::StateSpace;
@@ -165,6 +165,9 @@ pub struct Identifier {
     /// outputs.
     #[serde(default)]
     pub modes: ModeSelection,
+    /// The state at the start of every record (OKID, see [`InitialState`]).
+    #[serde(default)]
+    pub initial_state: InitialState,
 }
 
 impl Default for Identifier {
@@ -185,6 +188,7 @@ impl Default for Identifier {
             rule: StructuralRule::default(),
             dofs: None,
             modes: ModeSelection::Auto,
+            initial_state: InitialState::AtRest,
         }
     }
 }
@@ -199,6 +203,12 @@ impl Identifier {
     /// Sets the OKID observer order.
     pub fn observer_order(mut self, order: ObserverOrder) -> Self {
         self.observer_order = order;
+        self
+    }
+
+    /// Sets what OKID assumes about the state at the start of every record.
+    pub fn initial_state(mut self, initial_state: InitialState) -> Self {
+        self.initial_state = initial_state;
         self
     }
 
@@ -288,6 +298,7 @@ impl Identifier {
             rcond: self.rcond.unwrap_or(base.rcond),
             max_rcond_raises: self.max_rcond_raises,
             markov_count: base.markov_count,
+            initial_state: self.initial_state,
         };
         okid.check().map_err(Error::from_okid)?;
         let default_offset = match self.intersample {
