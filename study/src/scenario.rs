@@ -296,7 +296,8 @@ pub struct SweepAxis {
     /// The setting varied.
     pub setting: AxisSetting,
     /// Its values, in the order swept (numbers for `hits` and
-    /// `pulse_duration_s`, `"zoh"`/`"bandlimited"` for `intersample`).
+    /// `pulse_duration_s`, `"zoh"`/`"bandlimited"` for `intersample`,
+    /// `"hammer"`/`"shaker"` for `excitation`).
     pub values: Vec<AxisValue>,
 }
 
@@ -310,6 +311,10 @@ pub enum AxisSetting {
     PulseDurationS,
     /// Intersample assumption of the identification (`zoh`, `bandlimited`).
     Intersample,
+    /// What excites the campaign: `"hammer"` (`[campaign.hammer]`) or
+    /// `"shaker"` (the continuous `[campaign.excitation]` of the scenario),
+    /// on the same frame, to compare the two.
+    Excitation,
 }
 
 /// A value of a sweep axis.
@@ -338,6 +343,7 @@ impl AxisSetting {
             AxisSetting::Hits => "hits",
             AxisSetting::PulseDurationS => "pulse_duration_s",
             AxisSetting::Intersample => "intersample",
+            AxisSetting::Excitation => "excitation",
         }
     }
 }
@@ -659,6 +665,21 @@ impl Scenario {
                         return Err(bad(
                             &field,
                             format!("intersample must be \"zoh\" or \"bandlimited\", got {v}"),
+                        ));
+                    }
+                    (AxisSetting::Excitation, AxisValue::Text(t)) if t == "hammer" => {}
+                    (AxisSetting::Excitation, AxisValue::Text(t)) if t == "shaker" => {
+                        if self.campaign.excitation == sim::Excitation::Hammer {
+                            return Err(bad(
+                                &field,
+                                "\"shaker\" needs a continuous [campaign.excitation] (random, burst-random or chirp) in the scenario".into(),
+                            ));
+                        }
+                    }
+                    (AxisSetting::Excitation, _) => {
+                        return Err(bad(
+                            &field,
+                            format!("excitation must be \"hammer\" or \"shaker\", got {v}"),
                         ));
                     }
                 }

@@ -186,6 +186,11 @@ impl Plan {
                     s.identification.intersample =
                         Some(t.parse().expect("axis values are checked when loaded"))
                 }
+                // "shaker" keeps the scenario's continuous excitation.
+                (AxisSetting::Excitation, AxisValue::Text(t)) if t == "hammer" => {
+                    s.campaign.excitation = sim::Excitation::Hammer
+                }
+                (AxisSetting::Excitation, AxisValue::Text(_)) => {}
                 _ => unreachable!("axis values are checked when the scenario is loaded"),
             }
         }
