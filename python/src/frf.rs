@@ -949,6 +949,16 @@ fn extract_paths(obj: &Bound<'_, PyAny>) -> PyResult<Vec<PathBuf>> {
     })
 }
 
+/// A reading error in the keywords' terms: the library names the fields
+/// of `FrfReadOptions`, which are `read_frf`'s keywords.
+fn keywords(message: &str) -> String {
+    message
+        .replace("FrfReadOptions::quantity", "quantity= (or unit=)")
+        .replace("FrfReadOptions::reference", "reference=")
+        .replace("FrfReadOptions::responses", "responses=")
+        .replace("FrfReadOptions::unit", "unit=")
+}
+
 /// Reads FRF files (UFF58 ASCII or binary, CSV with the header convention,
 /// headerless ``freq; H1; ...`` complex CSV; detected from the content) and
 /// collates them into one ``FrfSet``, as ``frameid identify FILES`` does
@@ -1020,7 +1030,7 @@ fn read_frf(
                     records::frf::read_frf(path, &opts)
                 })
                 .collect::<Result<Vec<_>, _>>()
-                .map_err(lib_error)?;
+                .map_err(|e| error(keywords(&crate::chain(&e))))?;
             let set =
                 records::frf::assemble(&files, &AssembleOptions::default()).map_err(lib_error)?;
             Ok(FrfSet {

@@ -291,7 +291,12 @@ def test_bad_input_names_the_file_or_argument(clean, tmp_path):
     assert str(bad) in message(frameid.read_frf, bad)
     headerless = tmp_path / "h.csv"
     headerless.write_text("1+0j;0.5+0.1j\n2+0j;0.4+0.2j\n", encoding="utf-8")
-    assert str(headerless) in message(frameid.read_frf, headerless)
+    text = message(frameid.read_frf, headerless)
+    assert str(headerless) in text and "quantity=" in text, text
+    text = message(frameid.read_frf, headerless, quantity="accelerance")
+    assert "reference=" in text, text
+    text = message(frameid.read_frf, headerless, quantity="accelerance", reference="f@1:+X")
+    assert "responses=" in text, text
     assert "reference" in message(frameid.read_frf, [headerless, headerless], quantity="accelerance",
                                   reference=["a@1:+X", "b@2:+X", "c@3:+X"], responses=["x@1:+X"])
     assert message(frameid.read_frf, headerless, quantity="speed").startswith("quantity:")
@@ -344,3 +349,23 @@ def test_the_stubs_list_the_frf_api():
         # subclass's stub lists its own members only).
         assert runtime <= stubbed, (cls, runtime - stubbed)
         assert stubbed - {"__init__", "__len__"} <= runtime, (cls, stubbed - runtime)
+
+
+def test_frf_file_errors_are_the_command_lines(cli, clean, tmp_path):
+    _, _, res = clean
+
+    def cli_message(*args):
+        code, out, err = cli(*args)
+        assert code == 2, (code, out, err)
+        assert err.startswith("error: "), err
+        return err[len("error: ") :].rstrip("\n")
+
+    bad = tmp_path / "bad.csv"
+    bad.write_text("frequency_hz,re H(a/f) [(m/s^2)/N],im H(a/f) [(m/s^2)/N]\n1,0.5,0.1\n2,0.5,x\n", encoding="utf-8")
+    assert message(frameid.read_frf, bad) == cli_message("identify", bad)
+    # Two files on different grids.
+    a, b = tmp_path / "a.uffb", tmp_path / "b.csv"
+    res.write(a, format="uff-binary")
+    frameid.FrfSet(res.frequency_hz[1:] * 2, res.values[1:], responses=["x@1:+X", "y@2:+X"],
+                   references=["g@3:+X"]).write(b, format="csv")
+    assert message(frameid.read_frf, [a, b]) == cli_message("identify", a, b)
