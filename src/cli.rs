@@ -197,6 +197,9 @@ pub struct IdentifyArgs {
     /// FRFs measured with an exponential window exp(-t/tau) not stated in the file: its tau in seconds, whose damping is removed
     #[arg(long, value_name = "TAU_S", help_heading = "FRF files")]
     pub exponential_tau: Option<f64>,
+    /// Known sensor masses in kg, one per output (DOF order) or one for all: the identified M is also given without them (each accelerometer's mass taken off its floor's diagonal entry)
+    #[arg(long, value_delimiter = ',', value_name = "KG")]
+    pub sensor_mass: Option<Vec<f64>>,
     /// Also write, for correlation with other tools, DIR/modes.uff (the model's modes as UFF dataset 55, with modal A from the identified M) and DIR/model_frf.uff (the identified model's accelerance as UFF58 on the measured frequency grid)
     #[arg(long, conflicts_with = "realization", value_name = "DIR")]
     pub export: Option<PathBuf>,

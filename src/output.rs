@@ -340,6 +340,9 @@ pub struct IdentifyReport {
     /// The maximum-likelihood refinement (with `--refine`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refined: Option<RefinedReport>,
+    /// M without the known sensor masses (with `--sensor-mass`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub without_sensors: Option<WithoutSensors>,
 }
 
 impl IdentifyReport {
@@ -401,6 +404,7 @@ impl IdentifyReport {
             uncertainty_skipped: None,
             mkr_modes: r.mkr_modes.clone(),
             refined: None,
+            without_sensors: None,
         }
     }
 
@@ -594,6 +598,9 @@ impl IdentifyReport {
         }
         if let Some(r) = &self.refined {
             out.push_str(&r.human());
+        }
+        if let Some(w) = &self.without_sensors {
+            out.push_str(&w.human());
         }
         if !self.warnings.is_empty() {
             out.push_str("\nWarnings\n");
@@ -990,8 +997,15 @@ pub struct FrfIdentifyReport {
     pub exponential_tau_s: Option<f64>,
     /// Coherence per pair and reciprocity between references.
     pub checks: study::frf_analysis::FrfChecks,
+    /// Error bars (parametric bootstrap; null with `--no-uncertainty`).
+    pub uncertainty: Option<study::frf_analysis::FrfSpread>,
+    /// Why there are no error bars, if asked for and there are none.
+    pub uncertainty_skipped: Option<String>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub refined: Option<RefinedReport>,
+    /// M without the known sensor masses (with `--sensor-mass`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub without_sensors: Option<WithoutSensors>,
     pub warnings: Vec<String>,
 }
 
@@ -1051,7 +1065,10 @@ impl FrfIdentifyReport {
             polarity_flipped: id.polarity_flipped,
             exponential_tau_s: id.exponential_tau_s,
             checks: a.checks.clone(),
+            uncertainty: a.uncertainty.clone(),
+            uncertainty_skipped: a.uncertainty_skipped.clone(),
             refined: a.refinement.as_ref().map(RefinedReport::from_frf),
+            without_sensors: None,
             warnings: a.warnings.clone(),
         }
     }
@@ -1088,13 +1105,32 @@ impl FrfIdentifyReport {
                 .get(s.collocated.input)
                 .map_or("?", |p| p.name.as_str()),
         );
-        out.push_str(&format!("pLSCF order {}\n\nModes\n", self.model_order));
+        out.push_str(&format!("pLSCF order {}\n", self.model_order));
+        let u = self.uncertainty.as_ref();
+        match (u, &self.uncertainty_skipped) {
+            (Some(u), _) => out.push_str(&format!(
+                "error bars: +- one standard error, {}\n",
+                u.method
+            )),
+            (None, Some(why)) => out.push_str(&format!("no error bars: {why}\n")),
+            _ => {}
+        }
+        out.push_str("\nModes\n");
+        let mut used = 0;
         for (i, m) in self.modes.iter().enumerate() {
+            let k = m.used.then_some(used);
+            used += usize::from(m.used);
+            let f_std = u
+                .zip(k)
+                .and_then(|(u, k)| u.frequencies_hz_std.get(k).copied());
+            let xi_std = u
+                .zip(k)
+                .and_then(|(u, k)| u.damping_ratios_std.get(k).map(|s| 100.0 * s));
             out.push_str(&format!(
                 "  {:>2}  f = {} Hz  xi = {} %  MPC {:.3}{}\n",
                 i + 1,
-                sig(m.frequency_hz, 6),
-                sig(100.0 * m.damping_ratio, 4),
+                plus_minus(m.frequency_hz, f_std, 6),
+                plus_minus(100.0 * m.damping_ratio, xi_std, 4),
                 m.mpc,
                 if m.used { "  used" } else { "  out of model" }
             ));
@@ -1126,13 +1162,25 @@ impl FrfIdentifyReport {
             sig(self.rayleigh.alpha, 5),
             sig(self.rayleigh.beta, 5)
         ));
-        let m = |rows: &Vec<Vec<f64>>| DMatrix::from_fn(rows.len(), rows.len(), |i, j| rows[i][j]);
-        out.push_str(&matrix("Mass M [kg]", &m(&self.mass)));
-        out.push_str(&matrix("Stiffness K [N/m]", &m(&self.stiffness)));
-        out.push_str(&matrix("Damping, MKR [N s/m]", &m(&self.damping_mkr)));
-        out.push_str(&matrix(
+        out.push_str(&matrix_table(
+            "Mass M [kg]",
+            &self.mass,
+            u.map(|u| u.mass_std.as_slice()),
+        ));
+        out.push_str(&matrix_table(
+            "Stiffness K [N/m]",
+            &self.stiffness,
+            u.map(|u| u.stiffness_std.as_slice()),
+        ));
+        out.push_str(&matrix_table(
+            "Damping, MKR [N s/m]",
+            &self.damping_mkr,
+            u.map(|u| u.damping_mkr_std.as_slice()),
+        ));
+        out.push_str(&matrix_table(
             "Damping, Rayleigh alpha M + beta K [N s/m]",
-            &m(&self.damping_rayleigh),
+            &self.damping_rayleigh,
+            u.map(|u| u.damping_rayleigh_std.as_slice()),
         ));
         out.push_str(&format!(
             "\nSecond-order consistency ||W W^T|| / ||W L W^T|| = {:.3e}\n",
@@ -1144,11 +1192,70 @@ impl FrfIdentifyReport {
         if let Some(r) = &self.refined {
             out.push_str(&r.human());
         }
+        if let Some(w) = &self.without_sensors {
+            out.push_str(&w.human());
+        }
         if !self.warnings.is_empty() {
             out.push_str("\nWarnings\n");
             for w in &self.warnings {
                 out.push_str(&format!("  - {w}\n"));
             }
+        }
+        out
+    }
+}
+
+/// The identified mass matrices with known sensor masses taken off
+/// (`--sensor-mass`).
+#[derive(Debug, Clone, Serialize)]
+pub struct WithoutSensors {
+    /// The sensor masses, one per DOF, kg.
+    pub sensor_mass_kg: Vec<f64>,
+    /// `M - diag(sensor masses)`.
+    pub mass: Vec<Vec<f64>>,
+    /// The refined M without them, with `--refine`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub refined_mass: Option<Vec<Vec<f64>>>,
+}
+
+impl WithoutSensors {
+    /// Takes `sensor_mass_kg` off `mass` (and `refined`).
+    pub fn new(
+        sensor_mass_kg: &[f64],
+        mass: &DMatrix<f64>,
+        refined: Option<&DMatrix<f64>>,
+    ) -> anyhow::Result<Self> {
+        let take = |m: &DMatrix<f64>| {
+            study::analysis::subtract_sensor_masses(m, sensor_mass_kg)
+                .map_err(|e| anyhow::anyhow!("--sensor-mass: {e}"))
+        };
+        let bare = take(mass)?;
+        let n = mass.nrows();
+        Ok(WithoutSensors {
+            sensor_mass_kg: if sensor_mass_kg.len() == 1 {
+                vec![sensor_mass_kg[0]; n]
+            } else {
+                sensor_mass_kg.to_vec()
+            },
+            mass: rows(&bare),
+            refined_mass: refined.map(take).transpose()?.map(|m| rows(&m)),
+        })
+    }
+
+    /// Readable table.
+    pub fn human(&self) -> String {
+        let m = |rows: &Vec<Vec<f64>>| DMatrix::from_fn(rows.len(), rows.len(), |i, j| rows[i][j]);
+        let mut out = format!(
+            "\nWithout the sensors ({} kg)\n",
+            self.sensor_mass_kg
+                .iter()
+                .map(|s| sig(*s, 4))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        out.push_str(&matrix("Mass M without the sensors [kg]", &m(&self.mass)));
+        if let Some(r) = &self.refined_mass {
+            out.push_str(&matrix("Refined mass M without the sensors [kg]", &m(r)));
         }
         out
     }

@@ -116,7 +116,14 @@ fn frf_then_identify_recovers_the_truth_as_the_time_route_does() {
     ] {
         let path = frf_dir.join(f);
         let export = dir.path().join(format!("export-{f}"));
-        let mut args = vec!["identify", "--json", s(&path), "--export", s(&export)];
+        let mut args = vec![
+            "identify",
+            "--json",
+            "--no-uncertainty",
+            s(&path),
+            "--export",
+            s(&export),
+        ];
         args.extend(extra);
         let v: Value = serde_json::from_str(&ok(&args)).unwrap();
         assert_eq!(v["route"], "frf", "{f}");
@@ -287,6 +294,17 @@ fn the_cristallo_rig_gives_its_peaks_masses_mass_lines_and_reciprocity() {
             );
         }
     }
+    // Error bars by the parametric bootstrap from LSFD's residual (the
+    // files give no coherence): measured 0.12 % of M11, 0.03 % of M22.
+    let u = &v["uncertainty"];
+    assert!(
+        u["method"].as_str().unwrap().contains("LSFD's residual"),
+        "{u}"
+    );
+    for (i, row) in m.iter().enumerate() {
+        let sd = u["mass_std"][i][i].as_f64().unwrap();
+        assert!(sd > 0.0 && sd < 0.01 * row[i], "M{0}{0} ± {sd}", i + 1);
+    }
     // Reciprocity between H(floor 3 / f2) and H(floor 2 / f3) over the
     // band: measured 5.3 % (sensor calibrations and a lab rig's small
     // nonlinearities); the check warns above 15 %.
@@ -299,4 +317,53 @@ fn the_cristallo_rig_gives_its_peaks_masses_mass_lines_and_reciprocity() {
         "{}",
         v["warnings"]
     );
+}
+
+/// Shaker runs: `frf` detects the continuous excitation, averages Welch
+/// segments (the longest that keep 16 averages: 1024 samples, 18 averages
+/// over six 2048-sample runs) and `identify` recovers M and K from them.
+#[test]
+fn shaker_runs_give_welch_frfs_that_identify_the_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = std::fs::read_to_string(repo("scenarios/paper-case1.toml")).unwrap();
+    let scenario = dir.path().join("shaker.toml");
+    std::fs::write(
+        &scenario,
+        format!("{base}\n[campaign.excitation]\nfloor = 1\nkind = \"random\"\nrms_n = 2.0\nmin_frequency_hz = 1.0\nmax_frequency_hz = 24.0\n"),
+    )
+    .unwrap();
+    let runs = dir.path().join("runs");
+    ok(&[
+        "simulate",
+        s(&scenario),
+        "--hits",
+        "6",
+        "--seed",
+        "1",
+        "--out",
+        s(&runs),
+    ]);
+    let files = hit_files(&runs, "csv");
+    let out = dir.path().join("frf");
+    let mut args: Vec<&str> = vec!["frf", "--json"];
+    args.extend(files.iter().map(String::as_str));
+    args.extend(["--out", s(&out)]);
+    let summary: Value = serde_json::from_str(&ok(&args)).unwrap();
+    assert_eq!(summary["excitation"], "continuous");
+    assert_eq!(summary["block_len"], 1024);
+    assert_eq!(summary["averages"], 18);
+    let v: Value =
+        serde_json::from_str(&ok(&["identify", "--json", s(&out.join("frf.uff"))])).unwrap();
+    let (m, k) = (rel(&v["mass"], MASS), rel(&v["stiffness"], STIFFNESS));
+    eprintln!(
+        "shaker FRFs: M {m:.2e}, K {k:.2e}, damping {}",
+        v["damping_ratios"]
+    );
+    // Measured M 2.4e-3, K below it; the time route on these runs gives
+    // 0.3-0.5 % (tests/cli_shaker.rs). 1 % is the shaker tests' tolerance.
+    assert!(m < 0.01 && k < 0.01, "M {m}, K {k}");
+    // The Hann window's leakage on 16 s segments lifts the first mode's
+    // 0.54 % damping to 0.67 % (measured): documented, bounded here.
+    let xi1 = v["damping_ratios"][0].as_f64().unwrap();
+    assert!(xi1 > 0.0054 && xi1 < 0.0075, "{xi1}");
 }

@@ -105,6 +105,44 @@ fn check_flags(args: &IdentifyArgs) -> Result<()> {
     Ok(())
 }
 
+/// Refuses flags of the other route: a flag that would be ignored is a
+/// mistake the user should hear of.
+fn check_route_flags(args: &IdentifyArgs, first: &std::path::Path, frf: bool) -> Result<()> {
+    let given: Vec<&str> = if frf {
+        [
+            ("--observer-order", args.observer_order.is_some()),
+            ("--outputs", args.select.outputs.is_some()),
+            ("--fs", args.select.fs.is_some()),
+            ("--drop-bad-hits", args.drop_bad_hits),
+        ]
+        .into_iter()
+        .filter_map(|(f, on)| on.then_some(f))
+        .collect()
+    } else {
+        [
+            ("--frf-quantity", args.frf_quantity.is_some()),
+            ("--frf-unit", args.frf_unit.is_some()),
+            ("--reference", !args.reference.is_empty()),
+            ("--responses", args.responses.is_some()),
+            ("--exponential-tau", args.exponential_tau.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(f, on)| on.then_some(f))
+        .collect()
+    };
+    if !given.is_empty() {
+        bail!(
+            "{}: {} only to {}, but {} holds {}",
+            given.join(", "),
+            if given.len() == 1 { "applies" } else { "apply" },
+            if frf { "time records" } else { "FRF files" },
+            first.display(),
+            if frf { "FRFs" } else { "time records" }
+        );
+    }
+    Ok(())
+}
+
 /// Runs the command, writing the result to `out`.
 pub fn run(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
     check_flags(args)?;
@@ -146,12 +184,25 @@ pub fn run(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
             };
             let bytes = std::fs::read(first)
                 .with_context(|| format!("{}: cannot read", first.display()))?;
-            if records::frf::content_kind(&bytes) == records::frf::ContentKind::Frf {
+            let frf = records::frf::content_kind(&bytes) == records::frf::ContentKind::Frf;
+            check_route_flags(args, first, frf)?;
+            if frf {
                 return identify_frfs(args, out);
             }
             identify_records(args, modes)?
         }
     };
+    let mut report = report;
+    if let Some(s) = &args.sensor_mass {
+        let rows_to =
+            |r: &Vec<Vec<f64>>| nalgebra::DMatrix::from_fn(r.len(), r.len(), |i, j| r[i][j]);
+        let refined = report.refined.as_ref().map(|r| rows_to(&r.mass));
+        report.without_sensors = Some(crate::output::WithoutSensors::new(
+            s,
+            &rows_to(&report.mass),
+            refined.as_ref(),
+        )?);
+    }
     let text = if args.json {
         let mut text = serde_json::to_string_pretty(&report)?;
         text.push('\n');
@@ -388,6 +439,7 @@ fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
     let settings = FrfAnalysisSettings {
         identifier,
         strict: args.strict,
+        uncertainty: !args.no_uncertainty,
         refine: args.refine.then_some(args.parametrization),
     };
     let analysis = analyze_frfs(frf, &reference_outputs, &settings)?;
@@ -414,7 +466,14 @@ fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
             input: collocated.1,
         },
     };
-    let report = crate::output::FrfIdentifyReport::new(&analysis, source);
+    let mut report = crate::output::FrfIdentifyReport::new(&analysis, source);
+    if let Some(s) = &args.sensor_mass {
+        report.without_sensors = Some(crate::output::WithoutSensors::new(
+            s,
+            &analysis.identification.mass,
+            analysis.refinement.as_ref().map(|r| &r.mass),
+        )?);
+    }
     if let Some(dir) = &args.export {
         let id = &analysis.identification;
         let placed: Vec<(records::frf::FrfPoint, usize)> = match &analysis.refinement {

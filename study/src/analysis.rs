@@ -7,6 +7,7 @@
 
 use ident::refine::{Refinement, Refiner, SecondOrder};
 use ident::{Campaign, Identification, Identifier, Jackknife, ModelOrder, ObserverOrder};
+use nalgebra::DMatrix;
 use records::consistency::{
     ByPosition, Consistency, ConsistencyFlag, ConsistencySettings, Inconsistency, Locate,
     check_consistency,
@@ -1009,4 +1010,48 @@ pub fn identifier(
         id = id.observer_order(ObserverOrder::Fixed(p));
     }
     id
+}
+
+/// The mass matrix with known sensor masses taken off its diagonal: an
+/// accelerometer of mass `s_i` on floor `i` adds `s_i` to that floor's
+/// lumped mass, so the structure's own is `M - diag(s)` (K and the damping
+/// are the structure's either way). `sensor_mass_kg` holds one mass per
+/// DOF, or one for every DOF. Refuses a count that fits neither, a mass
+/// that is negative or not finite, and a result whose diagonal is not
+/// positive (a sensor heavier than its floor is not a sensor of it).
+pub fn subtract_sensor_masses(
+    mass: &DMatrix<f64>,
+    sensor_mass_kg: &[f64],
+) -> Result<DMatrix<f64>, String> {
+    let n = mass.nrows();
+    let per_dof: Vec<f64> = match sensor_mass_kg.len() {
+        1 => vec![sensor_mass_kg[0]; n],
+        k if k == n => sensor_mass_kg.to_vec(),
+        k => {
+            return Err(format!(
+                "{k} sensor masses for {n} floors: give one per floor (DOF order) or one for all"
+            ));
+        }
+    };
+    let mut out = mass.clone();
+    for (i, &s) in per_dof.iter().enumerate() {
+        if !(s.is_finite() && s >= 0.0) {
+            return Err(format!(
+                "sensor mass {} (floor {}) must be a mass in kg, finite and not negative, got {s}",
+                i + 1,
+                i + 1
+            ));
+        }
+        out[(i, i)] -= s;
+        if out[(i, i)] <= 0.0 {
+            return Err(format!(
+                "sensor mass {s} kg on floor {} is not below the identified floor mass M{}{} = {} kg",
+                i + 1,
+                i + 1,
+                i + 1,
+                sig(mass[(i, i)], 5)
+            ));
+        }
+    }
+    Ok(out)
 }

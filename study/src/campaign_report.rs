@@ -554,6 +554,14 @@ pub fn frf_report(
             }
         ),
     ));
+    source.push(setup_row(
+        "Error bars",
+        match (&analysis.uncertainty, &analysis.uncertainty_skipped) {
+            (Some(u), _) => u.method.clone(),
+            (None, Some(why)) => format!("none: {why}"),
+            (None, None) => "not asked for".into(),
+        },
+    ));
     if let Some(tau) = id.exponential_tau_s {
         source.push(setup_row(
             "Exponential window",
@@ -644,6 +652,10 @@ pub fn frf_report(
     if frfs.iter().all(|f| f.identified.is_empty()) {
         warnings.push("the model's FRFs are not drawn: no reference is placed on a floor".into());
     }
+    let u = analysis.uncertainty.as_ref();
+    let sd = |pick: fn(&crate::frf_analysis::FrfSpread) -> &Vec<Vec<f64>>, i: usize, j: usize| {
+        u.map(|u| pick(u)[i][j])
+    };
     let mut tables = vec![
         table(
             "Natural frequencies",
@@ -654,7 +666,7 @@ pub fn frf_report(
                 .map(|(j, &f)| rm::ValueRow {
                     label: format!("f{}", j + 1),
                     value: f,
-                    std: None,
+                    std: u.and_then(|u| u.frequencies_hz_std.get(j).copied()),
                 })
                 .collect(),
         ),
@@ -667,29 +679,33 @@ pub fn frf_report(
                 .map(|(j, &x)| rm::ValueRow {
                     label: format!("xi{}", j + 1),
                     value: 100.0 * x,
-                    std: None,
+                    std: u.and_then(|u| u.damping_ratios_std.get(j).map(|s| 100.0 * s)),
                 })
                 .collect(),
         ),
         table(
             "Mass matrix M",
             "kg",
-            matrix_rows("M", &id.mass, |_, _| None),
+            matrix_rows("M", &id.mass, |i, j| sd(|u| &u.mass_std, i, j)),
         ),
         table(
             "Stiffness matrix K",
             "N/m",
-            matrix_rows("K", &id.stiffness, |_, _| None),
+            matrix_rows("K", &id.stiffness, |i, j| sd(|u| &u.stiffness_std, i, j)),
         ),
         table(
             "Damping matrix, MKR",
             "N s/m",
-            matrix_rows("R", &id.damping_mkr, |_, _| None),
+            matrix_rows("R", &id.damping_mkr, |i, j| {
+                sd(|u| &u.damping_mkr_std, i, j)
+            }),
         ),
         table(
             "Damping matrix, Rayleigh",
             "N s/m",
-            matrix_rows("R", &id.damping_rayleigh, |_, _| None),
+            matrix_rows("R", &id.damping_rayleigh, |i, j| {
+                sd(|u| &u.damping_rayleigh_std, i, j)
+            }),
         ),
     ];
     if let Some(r) = &analysis.refinement {
