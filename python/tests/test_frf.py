@@ -81,6 +81,13 @@ def test_identify_frf_recovers_the_truth(clean):
     assert ident.checks["reciprocity"] == []  # one reference
     assert len(ident.checks["coherence"]) == 2
     assert ident.refined is None and ident.files == []
+    # Error bars by the bootstrap unless asked not to.
+    u = ident.uncertainty
+    assert u.resamples + u.failed == 40 and u.mass_std.shape == (2, 2)
+    assert np.all(np.isfinite(u.frequencies_hz_std)) and u.frequencies_hz_std.shape == (2,)
+    none = frameid.identify_frf(res, uncertainty=False)
+    assert none.uncertainty is None and none.uncertainty_skipped is None
+    np.testing.assert_array_equal(none.mass, ident.mass)
 
 
 def test_written_frf_files_read_back_and_identify_alike(clean, tmp_path):
@@ -237,6 +244,9 @@ def test_the_cristallo_identification_is_the_command_lines(cli, cristallo):
     for name in ("mass", "stiffness", "damping_mkr", "damping_rayleigh", "frequencies_hz", "damping_ratios"):
         np.testing.assert_array_equal(getattr(ident, name), np.array(v[name]), err_msg=name)
     assert ident.model_order == v["model_order"]
+    # The bootstrap's error bars (fixed seed): the same.
+    assert ident.uncertainty.to_dict() == v["uncertainty"]
+    np.testing.assert_array_equal(ident.uncertainty.mass_std, np.array(v["uncertainty"]["mass_std"]))
     assert ident.warnings == v["warnings"]
     assert ident.checks == v["checks"]
     assert len(ident.modes) == len(v["modes"]) and len(ident.rejected_modes) == len(v["rejected_modes"])
@@ -254,6 +264,7 @@ def test_frf_results_pickle(clean, cristallo):
     assert b.files == frfs.files and b.response_points == frfs.response_points
     i = roundtrip(ident)
     assert i == ident and i.checks == ident.checks
+    assert roundtrip(ident.uncertainty).to_dict() == ident.uncertainty.to_dict()
     np.testing.assert_array_equal(i.mass, ident.mass)
     refined = frameid.identify_frf(frfs, band_hz=(3, 35), refine=True, parametrization="shear-frame")
     rb = roundtrip(refined)
@@ -341,7 +352,7 @@ def test_the_stubs_list_the_frf_api():
     stubs = {n.name: n for n in tree.body if isinstance(n, (ast.ClassDef, ast.FunctionDef))}
     for name in ("frf", "read_frf", "identify_frf"):
         assert name in stubs and name in frameid.__all__, name
-    for cls in ("FrfSet", "FrfResult", "FrfIdentification", "FrfRefined"):
+    for cls in ("FrfSet", "FrfResult", "FrfIdentification", "FrfRefined", "FrfUncertainty"):
         assert cls in stubs and cls in frameid.__all__, cls
         stubbed = {n.name for n in stubs[cls].body if isinstance(n, ast.FunctionDef)}
         runtime = {n for n in vars(getattr(frameid, cls)) if not n.startswith("_")}
