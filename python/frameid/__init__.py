@@ -22,7 +22,7 @@ the FRF route: :func:`frf`, :func:`read_frf`, :func:`identify_frf`.
 Classes: :class:`Campaign`, :class:`Identification` (with :class:`Mode`,
 :class:`Uncertainty`, :class:`Refined`, :class:`RefinedMode`), :class:`Truth`,
 :class:`Bound`, :class:`Sweep`; :class:`FrfSet` (and :class:`FrfResult`),
-:class:`FrfIdentification` (with :class:`FrfRefined`).
+:class:`FrfIdentification` (with :class:`FrfUncertainty`, :class:`FrfRefined`).
 """
 
 from ._native import (
@@ -33,6 +33,7 @@ from ._native import (
     FrfRefined,
     FrfResult,
     FrfSet,
+    FrfUncertainty,
     Identification,
     Mode,
     Refined,
@@ -62,6 +63,7 @@ __all__ = [
     "FrfRefined",
     "FrfResult",
     "FrfSet",
+    "FrfUncertainty",
     "Identification",
     "Mode",
     "Refined",

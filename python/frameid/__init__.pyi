@@ -423,6 +423,30 @@ class FrfRefined:
     @property
     def covariance(self) -> _F64: ...
 
+class FrfUncertainty:
+    """Error bars of an FRF identification by the parametric bootstrap (*_std)."""
+
+    @property
+    def method(self) -> str: ...
+    @property
+    def resamples(self) -> int: ...
+    @property
+    def failed(self) -> int: ...
+    @property
+    def frequencies_hz_std(self) -> _F64: ...
+    @property
+    def damping_ratios_std(self) -> _F64: ...
+    @property
+    def mass_std(self) -> _F64: ...
+    @property
+    def stiffness_std(self) -> _F64: ...
+    @property
+    def damping_mkr_std(self) -> _F64: ...
+    @property
+    def damping_rayleigh_std(self) -> _F64: ...
+    def to_dict(self) -> dict[str, Any]:
+        """The `uncertainty` of `frameid identify --json` on FRF files."""
+
 class FrfIdentification:
     """Modes, M, K and damping from FRFs, with the checks and the diagram."""
 
@@ -476,6 +500,10 @@ class FrfIdentification:
 
     @property
     def warnings(self) -> list[str]: ...
+    @property
+    def uncertainty(self) -> FrfUncertainty | None: ...
+    @property
+    def uncertainty_skipped(self) -> str | None: ...
     @property
     def refined(self) -> FrfRefined | None: ...
     @property
@@ -675,6 +703,7 @@ def identify_frf(
     modes: Sequence[float] | None = None,
     collocated: tuple[_Pick, _Pick] | Sequence[_Pick] | str | None = None,
     exponential_tau_s: float | None = None,
+    uncertainty: bool = True,
     refine: bool = False,
     parametrization: str = "full",
     strict: bool = False,

@@ -949,6 +949,16 @@ fn extract_paths(obj: &Bound<'_, PyAny>) -> PyResult<Vec<PathBuf>> {
     })
 }
 
+/// A reading error in the keywords' terms: the library names the fields
+/// of `FrfReadOptions`, which are `read_frf`'s keywords.
+fn keywords(message: &str) -> String {
+    message
+        .replace("FrfReadOptions::quantity", "quantity= (or unit=)")
+        .replace("FrfReadOptions::reference", "reference=")
+        .replace("FrfReadOptions::responses", "responses=")
+        .replace("FrfReadOptions::unit", "unit=")
+}
+
 /// Reads FRF files (UFF58 ASCII or binary, CSV with the header convention,
 /// headerless ``freq; H1; ...`` complex CSV; detected from the content) and
 /// collates them into one ``FrfSet``, as ``frameid identify FILES`` does
@@ -1020,7 +1030,7 @@ fn read_frf(
                     records::frf::read_frf(path, &opts)
                 })
                 .collect::<Result<Vec<_>, _>>()
-                .map_err(lib_error)?;
+                .map_err(|e| error(keywords(&crate::chain(&e))))?;
             let set =
                 records::frf::assemble(&files, &AssembleOptions::default()).map_err(lib_error)?;
             Ok(FrfSet {
@@ -1035,6 +1045,8 @@ fn read_frf(
 pub struct FrfIdentState {
     identification: ident::frf::FrfIdentification,
     refinement: Option<FrfRefinement>,
+    uncertainty: Option<SpreadState>,
+    uncertainty_skipped: Option<String>,
     /// `study::frf_analysis::FrfChecks` as JSON (serializes only).
     checks_json: String,
     warnings: Vec<String>,
@@ -1048,6 +1060,115 @@ pub struct FrfIdentState {
     band_hz: (f64, f64),
     averages: Option<usize>,
     coherence: bool,
+}
+
+/// A serializable copy of `study::frf_analysis::FrfSpread` (which
+/// serializes only).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SpreadState {
+    method: String,
+    resamples: usize,
+    failed: usize,
+    frequencies_hz_std: Vec<f64>,
+    damping_ratios_std: Vec<f64>,
+    mass_std: Vec<Vec<f64>>,
+    stiffness_std: Vec<Vec<f64>>,
+    damping_mkr_std: Vec<Vec<f64>>,
+    damping_rayleigh_std: Vec<Vec<f64>>,
+}
+
+impl SpreadState {
+    fn of(s: study::frf_analysis::FrfSpread) -> Self {
+        SpreadState {
+            method: s.method,
+            resamples: s.resamples,
+            failed: s.failed,
+            frequencies_hz_std: s.frequencies_hz_std,
+            damping_ratios_std: s.damping_ratios_std,
+            mass_std: s.mass_std,
+            stiffness_std: s.stiffness_std,
+            damping_mkr_std: s.damping_mkr_std,
+            damping_rayleigh_std: s.damping_rayleigh_std,
+        }
+    }
+}
+
+/// Error bars of an FRF identification by the parametric bootstrap (the
+/// ``uncertainty`` of ``frameid identify --json`` on FRF files): the
+/// identified modal model plus noise of each value's variance (from the
+/// coherence and averages, else LSFD's residual) identified again, with
+/// a fixed seed; ``*_std`` are the standard deviations over the resamples.
+#[pyclass(module = "frameid", frozen)]
+pub struct FrfUncertainty {
+    state: SpreadState,
+}
+
+impl FrfUncertainty {
+    pub fn from_state(bytes: &[u8]) -> PyResult<Self> {
+        Ok(FrfUncertainty {
+            state: from_state(bytes)?,
+        })
+    }
+}
+
+#[pymethods]
+impl FrfUncertainty {
+    /// How the error bars were obtained, in words.
+    #[getter]
+    fn method(&self) -> String {
+        self.state.method.clone()
+    }
+    /// Resamples identified.
+    #[getter]
+    fn resamples(&self) -> usize {
+        self.state.resamples
+    }
+    /// Resamples that could not be identified (left out).
+    #[getter]
+    fn failed(&self) -> usize {
+        self.state.failed
+    }
+    /// Standard deviations of the frequencies of the modes used, Hz.
+    #[getter]
+    fn frequencies_hz_std<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        vector(py, &self.state.frequencies_hz_std)
+    }
+    /// Standard deviations of the damping ratios of the modes used.
+    #[getter]
+    fn damping_ratios_std<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        vector(py, &self.state.damping_ratios_std)
+    }
+    /// Standard deviations of M, kg.
+    #[getter]
+    fn mass_std<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        arrays::rows(py, &self.state.mass_std)
+    }
+    /// Standard deviations of K, N/m.
+    #[getter]
+    fn stiffness_std<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        arrays::rows(py, &self.state.stiffness_std)
+    }
+    #[getter]
+    fn damping_mkr_std<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        arrays::rows(py, &self.state.damping_mkr_std)
+    }
+    #[getter]
+    fn damping_rayleigh_std<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        arrays::rows(py, &self.state.damping_rayleigh_std)
+    }
+    /// Everything as a dict (the ``uncertainty`` of the command line's JSON).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        arrays::to_python(py, &self.state)
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "FrfUncertainty({} resamples, {} failed)",
+            self.state.resamples, self.state.failed
+        )
+    }
+    fn __reduce__<'py>(&self, py: Python<'py>) -> Reduced<'py> {
+        reduce(py, "FrfUncertainty", to_state(py, &self.state)?)
+    }
 }
 
 /// The result of ``identify_frf``: modes, M, K and damping from FRFs, with
@@ -1264,6 +1385,23 @@ impl FrfIdentification {
         self.state.warnings.clone()
     }
 
+    /// Error bars by the parametric bootstrap, or ``None`` (with
+    /// ``uncertainty=False``, or when they could not be made: then
+    /// ``uncertainty_skipped`` says why).
+    #[getter]
+    fn uncertainty(&self) -> Option<FrfUncertainty> {
+        self.state
+            .uncertainty
+            .clone()
+            .map(|state| FrfUncertainty { state })
+    }
+
+    /// Why there are no error bars, if there are none though asked for.
+    #[getter]
+    fn uncertainty_skipped(&self) -> Option<String> {
+        self.state.uncertainty_skipped.clone()
+    }
+
     /// The maximum-likelihood refinement on the FRFs (``refine=True``), or
     /// ``None``.
     #[getter]
@@ -1401,10 +1539,15 @@ impl FrfIdentification {
             .map(|(f, xi)| format!("{f:.4} Hz ({:.3} %)", 100.0 * xi))
             .collect();
         format!(
-            "FrfIdentification(modes used: {}; pLSCF order {}; {} warning(s){})",
+            "FrfIdentification(modes used: {}; pLSCF order {}; {} warning(s){}{})",
             modes.join(", "),
             id.order,
             self.state.warnings.len(),
+            if self.state.uncertainty.is_some() {
+                "; error bars"
+            } else {
+                ""
+            },
             if self.state.refinement.is_some() {
                 "; refined"
             } else {
@@ -1580,9 +1723,11 @@ impl FrfRefined {
 /// (default: the first detected from the points; an error if none).
 /// ``exponential_tau_s``: the time constant of an exponential window behind
 /// the FRFs (default the one they state). Lines are weighted by the
-/// coherence when the FRFs carry it. Runs without holding the interpreter.
+/// coherence when the FRFs carry it. ``uncertainty``: error bars by the
+/// parametric bootstrap (40 resamples, as the command line's default; off
+/// as ``--no-uncertainty``). Runs without holding the interpreter.
 #[pyfunction]
-#[pyo3(signature = (frfs, *, band_hz=None, order=None, modes=None, collocated=None, exponential_tau_s=None, refine=false, parametrization="full", strict=false))]
+#[pyo3(signature = (frfs, *, band_hz=None, order=None, modes=None, collocated=None, exponential_tau_s=None, uncertainty=true, refine=false, parametrization="full", strict=false))]
 #[allow(clippy::too_many_arguments)]
 fn identify_frf(
     py: Python<'_>,
@@ -1592,6 +1737,7 @@ fn identify_frf(
     modes: Option<Vec<f64>>,
     collocated: Option<&Bound<'_, PyAny>>,
     exponential_tau_s: Option<f64>,
+    uncertainty: bool,
     refine: bool,
     parametrization: &str,
     strict: bool,
@@ -1671,6 +1817,7 @@ fn identify_frf(
     let settings = FrfAnalysisSettings {
         identifier,
         strict,
+        uncertainty,
         refine: refine.then_some(parametrization),
     };
     let state = py.detach(|| {
@@ -1680,6 +1827,8 @@ fn identify_frf(
                 checks_json: json_text(&a.checks)?,
                 warnings: a.warnings,
                 refinement: a.refinement,
+                uncertainty: a.uncertainty.map(SpreadState::of),
+                uncertainty_skipped: a.uncertainty_skipped,
                 identification: a.identification,
                 files: set.files.clone(),
                 responses: set.responses.clone(),
@@ -1701,6 +1850,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<FrfResult>()?;
     m.add_class::<FrfIdentification>()?;
     m.add_class::<FrfRefined>()?;
+    m.add_class::<FrfUncertainty>()?;
     m.add_function(wrap_pyfunction!(frf, m)?)?;
     m.add_function(wrap_pyfunction!(read_frf, m)?)?;
     m.add_function(wrap_pyfunction!(identify_frf, m)?)?;

@@ -125,6 +125,7 @@ fn _restore(py: Python<'_>, class: &str, state: &[u8]) -> PyResult<Py<PyAny>> {
         "FrfResult" => frf::FrfResult::restore(py, state)?.into_any(),
         "FrfIdentification" => Py::new(py, frf::FrfIdentification::from_state(state)?)?.into_any(),
         "FrfRefined" => Py::new(py, frf::FrfRefined::from_state(state)?)?.into_any(),
+        "FrfUncertainty" => Py::new(py, frf::FrfUncertainty::from_state(state)?)?.into_any(),
         other => return Err(error(format!("cannot unpickle: unknown class {other}"))),
     };
     Ok(obj)

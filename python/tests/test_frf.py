@@ -81,6 +81,13 @@ def test_identify_frf_recovers_the_truth(clean):
     assert ident.checks["reciprocity"] == []  # one reference
     assert len(ident.checks["coherence"]) == 2
     assert ident.refined is None and ident.files == []
+    # Error bars by the bootstrap unless asked not to.
+    u = ident.uncertainty
+    assert u.resamples + u.failed == 40 and u.mass_std.shape == (2, 2)
+    assert np.all(np.isfinite(u.frequencies_hz_std)) and u.frequencies_hz_std.shape == (2,)
+    none = frameid.identify_frf(res, uncertainty=False)
+    assert none.uncertainty is None and none.uncertainty_skipped is None
+    np.testing.assert_array_equal(none.mass, ident.mass)
 
 
 def test_written_frf_files_read_back_and_identify_alike(clean, tmp_path):
@@ -237,6 +244,9 @@ def test_the_cristallo_identification_is_the_command_lines(cli, cristallo):
     for name in ("mass", "stiffness", "damping_mkr", "damping_rayleigh", "frequencies_hz", "damping_ratios"):
         np.testing.assert_array_equal(getattr(ident, name), np.array(v[name]), err_msg=name)
     assert ident.model_order == v["model_order"]
+    # The bootstrap's error bars (fixed seed): the same.
+    assert ident.uncertainty.to_dict() == v["uncertainty"]
+    np.testing.assert_array_equal(ident.uncertainty.mass_std, np.array(v["uncertainty"]["mass_std"]))
     assert ident.warnings == v["warnings"]
     assert ident.checks == v["checks"]
     assert len(ident.modes) == len(v["modes"]) and len(ident.rejected_modes) == len(v["rejected_modes"])
@@ -254,6 +264,7 @@ def test_frf_results_pickle(clean, cristallo):
     assert b.files == frfs.files and b.response_points == frfs.response_points
     i = roundtrip(ident)
     assert i == ident and i.checks == ident.checks
+    assert roundtrip(ident.uncertainty).to_dict() == ident.uncertainty.to_dict()
     np.testing.assert_array_equal(i.mass, ident.mass)
     refined = frameid.identify_frf(frfs, band_hz=(3, 35), refine=True, parametrization="shear-frame")
     rb = roundtrip(refined)
@@ -291,7 +302,12 @@ def test_bad_input_names_the_file_or_argument(clean, tmp_path):
     assert str(bad) in message(frameid.read_frf, bad)
     headerless = tmp_path / "h.csv"
     headerless.write_text("1+0j;0.5+0.1j\n2+0j;0.4+0.2j\n", encoding="utf-8")
-    assert str(headerless) in message(frameid.read_frf, headerless)
+    text = message(frameid.read_frf, headerless)
+    assert str(headerless) in text and "quantity=" in text, text
+    text = message(frameid.read_frf, headerless, quantity="accelerance")
+    assert "reference=" in text, text
+    text = message(frameid.read_frf, headerless, quantity="accelerance", reference="f@1:+X")
+    assert "responses=" in text, text
     assert "reference" in message(frameid.read_frf, [headerless, headerless], quantity="accelerance",
                                   reference=["a@1:+X", "b@2:+X", "c@3:+X"], responses=["x@1:+X"])
     assert message(frameid.read_frf, headerless, quantity="speed").startswith("quantity:")
@@ -336,7 +352,7 @@ def test_the_stubs_list_the_frf_api():
     stubs = {n.name: n for n in tree.body if isinstance(n, (ast.ClassDef, ast.FunctionDef))}
     for name in ("frf", "read_frf", "identify_frf"):
         assert name in stubs and name in frameid.__all__, name
-    for cls in ("FrfSet", "FrfResult", "FrfIdentification", "FrfRefined"):
+    for cls in ("FrfSet", "FrfResult", "FrfIdentification", "FrfRefined", "FrfUncertainty"):
         assert cls in stubs and cls in frameid.__all__, cls
         stubbed = {n.name for n in stubs[cls].body if isinstance(n, ast.FunctionDef)}
         runtime = {n for n in vars(getattr(frameid, cls)) if not n.startswith("_")}
@@ -344,3 +360,23 @@ def test_the_stubs_list_the_frf_api():
         # subclass's stub lists its own members only).
         assert runtime <= stubbed, (cls, runtime - stubbed)
         assert stubbed - {"__init__", "__len__"} <= runtime, (cls, stubbed - runtime)
+
+
+def test_frf_file_errors_are_the_command_lines(cli, clean, tmp_path):
+    _, _, res = clean
+
+    def cli_message(*args):
+        code, out, err = cli(*args)
+        assert code == 2, (code, out, err)
+        assert err.startswith("error: "), err
+        return err[len("error: ") :].rstrip("\n")
+
+    bad = tmp_path / "bad.csv"
+    bad.write_text("frequency_hz,re H(a/f) [(m/s^2)/N],im H(a/f) [(m/s^2)/N]\n1,0.5,0.1\n2,0.5,x\n", encoding="utf-8")
+    assert message(frameid.read_frf, bad) == cli_message("identify", bad)
+    # Two files on different grids.
+    a, b = tmp_path / "a.uffb", tmp_path / "b.csv"
+    res.write(a, format="uff-binary")
+    frameid.FrfSet(res.frequency_hz[1:] * 2, res.values[1:], responses=["x@1:+X", "y@2:+X"],
+                   references=["g@3:+X"]).write(b, format="csv")
+    assert message(frameid.read_frf, [a, b]) == cli_message("identify", a, b)

@@ -54,4 +54,4 @@ def test_frf_estimation_and_identification_release_the_interpreter(case1):
     camp, _ = case1
     frfs = frameid.frf(camp, exponential_end=0.01)
     check(lambda: [frameid.frf(camp, exponential_end=0.01) for _ in range(10)])
-    check(lambda: [frameid.identify_frf(frfs, refine=True) for _ in range(10)])
+    check(lambda: [frameid.identify_frf(frfs, refine=True) for _ in range(3)])

@@ -182,9 +182,12 @@ pub fn run(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
             let Some(first) = args.files.first() else {
                 bail!("no record files given");
             };
-            let bytes = std::fs::read(first)
-                .with_context(|| format!("{}: cannot read", first.display()))?;
-            let frf = records::frf::content_kind(&bytes) == records::frf::ContentKind::Frf;
+            // A file that cannot be read goes to the record reader, whose
+            // message names it as for every other file (and as the Python
+            // package's `read_records` does).
+            let frf = std::fs::read(first).is_ok_and(|bytes| {
+                records::frf::content_kind(&bytes) == records::frf::ContentKind::Frf
+            });
             check_route_flags(args, first, frf)?;
             if frf {
                 return identify_frfs(args, out);
