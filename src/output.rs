@@ -883,154 +883,56 @@ mod tests {
     }
 }
 
-/// What `frameid frf` did (`frf.json`, and `--json` on standard output).
-#[derive(Debug, Serialize)]
-pub struct FrfSummary {
-    /// The record files given.
-    pub files: Vec<String>,
-    /// Hits (records) averaged.
-    pub hits_used: usize,
-    /// Files left out (quality or consistency), with the warnings saying why.
-    pub dropped: Vec<String>,
-    /// The excitation the averaging was chosen for (`hammer`, `continuous`).
-    pub excitation: String,
-    /// H1, H2 or Hv.
-    pub estimator: String,
-    /// Averages behind each line.
-    pub averages: usize,
-    /// FFT length, samples.
-    pub block_len: usize,
-    /// Line spacing, Hz.
-    pub resolution_hz: f64,
-    /// Lines written.
-    pub lines: usize,
-    /// First and last line, Hz.
-    pub band_hz: [f64; 2],
-    /// The windows and blocks used.
-    pub windows: ident::frf::estimate::AppliedWindows,
-    /// Time constant of the exponential window, s: its damping
-    /// (`1 / (tau omega)` of critical at `omega`) is in the FRFs and is
-    /// removed by `frameid identify`.
-    pub exponential_tau_s: Option<f64>,
-    /// Whether the hits were checked against a joint model as well as
-    /// against each other.
-    pub model_checks: bool,
-    /// Responses (outputs) and references (forces), in file order.
-    pub outputs: Vec<String>,
-    /// The references.
-    pub references: Vec<String>,
-    /// Lowest coherence of any pair over the lines, and its median.
-    pub coherence_min: f64,
-    /// Median coherence over the lines and pairs.
-    pub coherence_median: f64,
-    /// The files written, in the output directory.
-    pub written: Vec<String>,
-    /// Every warning, naming files and channels.
-    pub warnings: Vec<String>,
-}
-
-impl FrfSummary {
-    /// The summary of an estimate written as `written`.
-    pub fn new(
-        o: &study::frfs::FrfOutcome,
-        files: &[std::path::PathBuf],
-        written: Vec<String>,
-    ) -> Self {
-        let frf = &o.estimate.frf;
-        let mut gamma: Vec<f64> = frf
-            .coherence
+/// Readable text of what `frameid frf` did, written into `dir`.
+pub fn frf_summary_text(this: &study::frfs::FrfSummary, dir: &std::path::Path) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "FRFs of {} record(s) ({}): {} of {} to {}, {} average(s), {} lines {}-{} Hz every {} Hz",
+        this.hits_used,
+        this.excitation,
+        this.estimator,
+        this.outputs.join(", "),
+        this.references.join(", "),
+        this.averages,
+        this.lines,
+        sig(this.band_hz[0], 5),
+        sig(this.band_hz[1], 5),
+        sig(this.resolution_hz, 5)
+    );
+    if let Some(tau) = this.exponential_tau_s {
+        let _ = writeln!(
+            s,
+            "exponential window: tau = {} s (it adds a damping ratio of 1 / (tau omega), e.g. {} % at 10 Hz; frameid identify removes it: the UFF files state it, a CSV file does not: pass --exponential-tau {} with it)",
+            sig(tau, 4),
+            sig(100.0 / (tau * 2.0 * std::f64::consts::PI * 10.0), 3),
+            tau
+        );
+    }
+    let _ = writeln!(
+        s,
+        "coherence: lowest {}, median {}",
+        sig(this.coherence_min, 3),
+        sig(this.coherence_median, 3)
+    );
+    if !this.dropped.is_empty() {
+        let _ = writeln!(s, "dropped: {}", this.dropped.join(", "));
+    }
+    for w in &this.warnings {
+        let _ = writeln!(s, "warning: {w}");
+    }
+    let _ = writeln!(
+        s,
+        "wrote {} in {}",
+        this.written
             .iter()
-            .flatten()
-            .flat_map(|g| g.iter().copied())
-            .filter(|g| g.is_finite())
-            .collect();
-        gamma.sort_by(f64::total_cmp);
-        let n = frf.frequency_hz.len();
-        FrfSummary {
-            files: files.iter().map(|f| f.display().to_string()).collect(),
-            hits_used: o.campaign.records.len(),
-            dropped: o
-                .dropped
-                .iter()
-                .map(|&i| {
-                    files
-                        .get(i)
-                        .map_or(format!("#{i}"), |f| f.display().to_string())
-                })
-                .collect(),
-            excitation: o.excitation.label().to_string(),
-            estimator: o.estimate.estimator.to_string(),
-            averages: frf.averages.unwrap_or(0),
-            block_len: o.estimate.windows.block_len,
-            resolution_hz: 1.0 / (o.estimate.windows.block_len as f64 * o.campaign.dt_s),
-            lines: n,
-            band_hz: [
-                frf.frequency_hz.first().copied().unwrap_or(f64::NAN),
-                frf.frequency_hz.last().copied().unwrap_or(f64::NAN),
-            ],
-            windows: o.estimate.windows.clone(),
-            exponential_tau_s: o.estimate.windows.exponential_tau_s,
-            model_checks: o.model_checks,
-            outputs: frf.outputs.clone(),
-            references: frf.references.clone(),
-            coherence_min: gamma.first().copied().unwrap_or(f64::NAN),
-            coherence_median: gamma.get(gamma.len() / 2).copied().unwrap_or(f64::NAN),
-            written,
-            warnings: o.warnings.clone(),
-        }
-    }
-
-    /// Readable text.
-    pub fn human(&self, dir: &std::path::Path) -> String {
-        let mut s = String::new();
-        let _ = writeln!(
-            s,
-            "FRFs of {} record(s) ({}): {} of {} to {}, {} average(s), {} lines {}-{} Hz every {} Hz",
-            self.hits_used,
-            self.excitation,
-            self.estimator,
-            self.outputs.join(", "),
-            self.references.join(", "),
-            self.averages,
-            self.lines,
-            sig(self.band_hz[0], 5),
-            sig(self.band_hz[1], 5),
-            sig(self.resolution_hz, 5)
-        );
-        if let Some(tau) = self.exponential_tau_s {
-            let _ = writeln!(
-                s,
-                "exponential window: tau = {} s (it adds a damping ratio of 1 / (tau omega), e.g. {} % at 10 Hz; frameid identify removes it: the UFF files state it, a CSV file does not: pass --exponential-tau {} with it)",
-                sig(tau, 4),
-                sig(100.0 / (tau * 2.0 * std::f64::consts::PI * 10.0), 3),
-                tau
-            );
-        }
-        let _ = writeln!(
-            s,
-            "coherence: lowest {}, median {}",
-            sig(self.coherence_min, 3),
-            sig(self.coherence_median, 3)
-        );
-        if !self.dropped.is_empty() {
-            let _ = writeln!(s, "dropped: {}", self.dropped.join(", "));
-        }
-        for w in &self.warnings {
-            let _ = writeln!(s, "warning: {w}");
-        }
-        let _ = writeln!(
-            s,
-            "wrote {} in {}",
-            self.written
-                .iter()
-                .chain(std::iter::once(&"frf.json".to_string()))
-                .cloned()
-                .collect::<Vec<_>>()
-                .join(", "),
-            dir.display()
-        );
-        s
-    }
+            .chain(std::iter::once(&"frf.json".to_string()))
+            .cloned()
+            .collect::<Vec<_>>()
+            .join(", "),
+        dir.display()
+    );
+    s
 }
 
 /// A measurement point of an FRF file.

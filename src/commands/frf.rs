@@ -11,8 +11,7 @@ use study::analysis::{AnalysisSettings, Screening};
 use study::frfs::{AveragingChoice, FrfSettings, estimate_frfs};
 
 use crate::cli::{AveragingArg, EstimatorArg, FrfArgs, FrfFormatArg};
-use crate::commands::identify::{load_campaign, parse_band, parse_collocated, record_points};
-use crate::output::FrfSummary;
+use crate::commands::identify::{load_campaign, parse_band, parse_collocated};
 
 /// The file name and layout of each `--format`.
 fn layout(f: FrfFormatArg) -> (&'static str, FrfFormat) {
@@ -97,7 +96,8 @@ pub fn run(args: &FrfArgs, out: &mut dyn Write) -> Result<()> {
         .collocated(collocated.0, collocated.1);
     let outcome = estimate_frfs(&campaign, &ByLine(&files), &settings)?;
 
-    let (responses, references) = record_points(&files, &outcome.campaign, collocated);
+    let (responses, references) =
+        study::export::record_points(&files, &outcome.campaign, collocated);
     let dir = fsio::OutputDir::create(&args.out, "frf.json")?;
     let mut written = Vec::new();
     for &f in &args.format {
@@ -110,7 +110,7 @@ pub fn run(args: &FrfArgs, out: &mut dyn Write) -> Result<()> {
         write_frf(&path, &file, format)?;
         written.push(name.to_string());
     }
-    let summary = FrfSummary::new(&outcome, &args.files, written);
+    let summary = study::frfs::FrfSummary::new(&outcome, &args.files, written);
     study::write_json(&dir.path().join("frf.json"), &summary)?;
     let target = dir
         .commit()
@@ -120,7 +120,7 @@ pub fn run(args: &FrfArgs, out: &mut dyn Write) -> Result<()> {
         t.push('\n');
         t
     } else {
-        summary.human(&target)
+        crate::output::frf_summary_text(&summary, &target)
     };
     out.write_all(text.as_bytes())?;
     Ok(())

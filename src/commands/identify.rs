@@ -5,7 +5,6 @@ use std::io::Write;
 
 use anyhow::{Context, Result, anyhow, bail};
 use records::consistency::ByLine;
-use records::numfmt::sig;
 use records::{ChannelSpec, ReadOptions, RecordFile};
 use study::analysis::{AnalysisSettings, Screening, analyze_located, identifier};
 
@@ -280,7 +279,8 @@ fn identify_records(args: &IdentifyArgs, modes: ident::ModeSelection) -> Result<
     let analysis = analyze_located(&campaign, &ByLine(&files), &settings)?;
     if let Some(dir) = &args.export {
         let id = &analysis.identification;
-        let (responses, inputs) = record_points(&files, &analysis.campaign, collocated);
+        let (responses, inputs) =
+            study::export::record_points(&files, &analysis.campaign, collocated);
         let grid = {
             let n = analysis.campaign.longest();
             let df = 1.0 / (n as f64 * analysis.campaign.dt_s);
@@ -290,7 +290,7 @@ fn identify_records(args: &IdentifyArgs, modes: ident::ModeSelection) -> Result<
             Some(r) => (&r.mass, &r.stiffness, &r.damping),
             None => (&id.mass, &id.stiffness, &id.damping_rayleigh),
         };
-        export(
+        study::export::write_export(
             dir,
             &responses,
             &[(inputs[collocated.1].clone(), collocated.0)],
@@ -313,29 +313,11 @@ fn identify_records(args: &IdentifyArgs, modes: ident::ModeSelection) -> Result<
 
 /// A point `NAME` or `NAME@NODE:DIR` given to `flag`.
 fn parse_point(flag: &str, text: &str) -> Result<records::frf::FrfPoint> {
-    let text = text.trim();
-    match text.split_once('@') {
-        None if !text.is_empty() => Ok(records::frf::FrfPoint::named(text)),
-        None => bail!("{flag}: empty point name"),
-        Some((name, at)) => {
-            let (node, dir) = at.split_once(':').ok_or_else(|| {
-                anyhow!("{flag}: expected NAME@NODE:DIR (e.g. force@2:+X), got '{text}'")
-            })?;
-            let node: i64 = node
-                .trim()
-                .parse()
-                .map_err(|_| anyhow!("{flag}: node '{node}' of '{text}' is not an integer"))?;
-            let dir = records::parse_direction(dir.trim()).ok_or_else(|| {
-                anyhow!("{flag}: direction '{dir}' of '{text}' is not one of +X, -X, +Y, ..., +RZ (or 1..6, -1..-6)")
-            })?;
-            Ok(records::frf::FrfPoint::named_at(name.trim(), node, dir))
-        }
-    }
+    text.parse().map_err(|e: String| anyhow!("{flag}: {e}"))
 }
 
 /// Reads FRF files, identifies them and renders the result.
 fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
-    use records::frf::{AssembleOptions, FrfReadOptions, assemble, read_frf};
     use study::frf_analysis::{FrfAnalysisSettings, analyze_frfs};
 
     if args.strict && args.drop_bad_hits {
@@ -372,23 +354,13 @@ fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
                 .collect::<Result<Vec<_>>>()
         })
         .transpose()?;
-    let files = args
-        .files
-        .iter()
-        .enumerate()
-        .map(|(k, path)| {
-            let opts = FrfReadOptions {
-                quantity,
-                unit: args.frf_unit.clone(),
-                reference: references
-                    .get(if references.len() == 1 { 0 } else { k })
-                    .cloned(),
-                responses: responses.clone(),
-            };
-            read_frf(path, &opts)
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let set = assemble(&files, &AssembleOptions::default())?;
+    let set = study::frf_analysis::read_frfs(
+        &args.files,
+        quantity,
+        args.frf_unit.as_deref(),
+        &references,
+        responses.as_deref(),
+    )?;
     let frf = &set.frf;
     let outputs: Vec<String> = frf.outputs.clone();
     let collocated = match &args.collocated {
@@ -428,19 +400,7 @@ fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
     if let Some(tau) = args.exponential_tau.or(set.exponential_tau_s) {
         identifier = identifier.exponential_window(tau);
     }
-    // Where each reference acts: the floor of the response at its point.
-    let reference_outputs: Vec<Option<usize>> = set
-        .references
-        .iter()
-        .enumerate()
-        .map(|(l, r)| {
-            if l == collocated.1 {
-                Some(collocated.0)
-            } else {
-                set.responses.iter().position(|p| p.same_point(r))
-            }
-        })
-        .collect();
+    let reference_outputs = study::frf_analysis::reference_outputs(&set, collocated);
     let settings = FrfAnalysisSettings {
         identifier,
         strict: args.strict,
@@ -500,7 +460,7 @@ fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
             Some(r) => (&r.mass, &r.stiffness, &r.damping),
             None => (&id.mass, &id.stiffness, &id.damping_rayleigh),
         };
-        export(
+        study::export::write_export(
             dir,
             &set.responses,
             &placed,
@@ -513,39 +473,12 @@ fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
     }
     if let Some(path) = &args.report {
         let command = std::env::args().collect::<Vec<_>>().join(" ");
-        let rows = vec![
-            study::campaign_report::setup_row("Files", names.join(", ")),
-            study::campaign_report::setup_row(
-                "FRFs",
-                format!(
-                    "{} of {} responses to {} reference(s), {} lines {}-{} Hz, {} average(s), coherence {}",
-                    frf.quantity,
-                    frf.outputs.len(),
-                    frf.references.len(),
-                    frf.frequency_hz.len(),
-                    sig(report.source.band_hz[0], 5),
-                    sig(report.source.band_hz[1], 5),
-                    frf.averages.map_or("unknown".into(), |n| n.to_string()),
-                    if frf.coherence.is_some() {
-                        "given (lines weighted by it)"
-                    } else {
-                        "not given"
-                    }
-                ),
-            ),
-            study::campaign_report::setup_row(
-                "Collocated pair",
-                format!(
-                    "{} / {}",
-                    outputs[collocated.0], frf.references[collocated.1]
-                ),
-            ),
-        ];
         let dofs: Vec<Option<usize>> = match &analysis.refinement {
             Some(r) => r.reference_dofs.iter().map(|&d| Some(d)).collect(),
             None => reference_outputs.clone(),
         };
-        let page = study::campaign_report::frf_report(&analysis, frf, &dofs, rows, &command);
+        let page =
+            study::campaign_report::frf_report(&analysis, frf, &dofs, &names, collocated, &command);
         reports::render_campaign_to_file(&page, path)
             .with_context(|| format!("--report {}", path.display()))?;
     }
@@ -557,83 +490,5 @@ fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
         report.human()
     };
     out.write_all(text.as_bytes())?;
-    Ok(())
-}
-
-/// The points of a campaign's outputs and inputs for FRF and mode files:
-/// each channel's UFF node and direction when its file states them, else
-/// node = DOF number (floor), direction +X; an input without them at its
-/// collocated output's point.
-pub(crate) fn record_points(
-    files: &[RecordFile],
-    c: &ident::Campaign,
-    collocated: (usize, usize),
-) -> (Vec<records::frf::FrfPoint>, Vec<records::frf::FrfPoint>) {
-    use records::frf::FrfPoint;
-    let stated = |name: &str| {
-        files
-            .first()
-            .and_then(|f| f.channels.iter().find(|ch| ch.name == name))
-            .and_then(|ch| ch.node.zip(ch.direction))
-    };
-    let responses: Vec<FrfPoint> = c
-        .outputs
-        .iter()
-        .enumerate()
-        .map(|(i, n)| {
-            let (node, dir) = stated(n).unwrap_or((i as i64 + 1, 1));
-            FrfPoint::named_at(n.as_str(), node, dir)
-        })
-        .collect();
-    let references = c
-        .inputs
-        .iter()
-        .enumerate()
-        .map(|(l, n)| match stated(n) {
-            Some((node, dir)) => FrfPoint::named_at(n.as_str(), node, dir),
-            None if l == collocated.1 => {
-                let (node, dir) = responses[collocated.0]
-                    .node_dir()
-                    .unwrap_or((collocated.0 as i64 + 1, 1));
-                FrfPoint::named_at(n.as_str(), node, dir)
-            }
-            None => FrfPoint::named(n.as_str()),
-        })
-        .collect();
-    (responses, references)
-}
-
-/// Writes `modes.uff` (UFF55: the modes of the model) and `model_frf.uff`
-/// (UFF58: the model's accelerance for each placed reference on
-/// `frequency_hz`) into `dir`, replacing a previous export.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn export(
-    dir: &std::path::Path,
-    responses: &[records::frf::FrfPoint],
-    references: &[(records::frf::FrfPoint, usize)],
-    frequencies_hz: &[f64],
-    damping_ratios: &[f64],
-    shapes: &nalgebra::DMatrix<ident::linalg::C64>,
-    model: (
-        &nalgebra::DMatrix<f64>,
-        &nalgebra::DMatrix<f64>,
-        &nalgebra::DMatrix<f64>,
-    ),
-    grid_hz: &[f64],
-) -> Result<()> {
-    let out = fsio::OutputDir::create(dir, "modes.uff")
-        .with_context(|| format!("--export {}", dir.display()))?;
-    let modes = study::export::modes(responses, frequencies_hz, damping_ratios, shapes, model.0);
-    records::frf::write_uff55(&out.path().join("modes.uff"), &modes)?;
-    let names: Vec<String> = responses.iter().map(|p| p.name.clone()).collect();
-    let refs: Vec<String> = references.iter().map(|(p, _)| p.name.clone()).collect();
-    let dofs: Vec<usize> = references.iter().map(|(_, d)| *d).collect();
-    let frf = study::export::model_frf(model, &dofs, grid_hz, &names, &refs);
-    let points: Vec<records::frf::FrfPoint> = references.iter().map(|(p, _)| p.clone()).collect();
-    let path = out.path().join("model_frf.uff");
-    let file = records::frf::FrfFile::from_frf(&path, &frf, responses, &points);
-    records::frf::write_frf(&path, &file, records::frf::FrfFormat::Uff58Ascii)?;
-    out.commit()
-        .with_context(|| format!("--export {}", dir.display()))?;
     Ok(())
 }

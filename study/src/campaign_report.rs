@@ -545,18 +545,46 @@ fn refined_tables(
     ]
 }
 
-/// The page of an identification from measured FRFs. `source` holds the
-/// rows on the files and points (the caller knows them); `reference_dofs`
-/// is the floor (0-based) of each reference force where known, for the
-/// model's FRFs.
+/// The page of an identification from measured FRFs read from `files`;
+/// `reference_dofs` is the floor (0-based) of each reference force where
+/// known, for the model's FRFs; `collocated` is (output, reference).
 pub fn frf_report(
     analysis: &crate::frf_analysis::FrfAnalysis,
     frf: &ident::frf::Frf,
     reference_dofs: &[Option<usize>],
-    mut source: Vec<rm::SetupRow>,
+    files: &[String],
+    collocated: (usize, usize),
     command: &str,
 ) -> rm::CampaignReport {
     let id = &analysis.identification;
+    let mut source = vec![
+        setup_row("Files", files.join(", ")),
+        setup_row(
+            "FRFs",
+            format!(
+                "{} of {} responses to {} reference(s), {} lines {}-{} Hz, {} average(s), coherence {}",
+                frf.quantity,
+                frf.outputs.len(),
+                frf.references.len(),
+                frf.frequency_hz.len(),
+                reports_sig(frf.frequency_hz[0]),
+                reports_sig(frf.frequency_hz[frf.frequency_hz.len() - 1]),
+                frf.averages.map_or("unknown".into(), |n| n.to_string()),
+                if frf.coherence.is_some() {
+                    "given (lines weighted by it)"
+                } else {
+                    "not given"
+                }
+            ),
+        ),
+        setup_row(
+            "Collocated pair",
+            format!(
+                "{} / {}",
+                frf.outputs[collocated.0], frf.references[collocated.1]
+            ),
+        ),
+    ];
     let mut warnings = analysis.warnings.clone();
     source.push(setup_row(
         "Method",

@@ -98,6 +98,77 @@ pub fn model_frf(
     }
 }
 
+/// The points of a campaign's outputs and inputs for FRF and mode files:
+/// each channel's UFF node and direction when its file states them, else
+/// node = DOF number (floor), direction +X; an input without them at its
+/// collocated output's point.
+pub fn record_points(
+    files: &[records::RecordFile],
+    c: &ident::Campaign,
+    collocated: (usize, usize),
+) -> (Vec<FrfPoint>, Vec<FrfPoint>) {
+    let stated = |name: &str| {
+        files
+            .first()
+            .and_then(|f| f.channels.iter().find(|ch| ch.name == name))
+            .and_then(|ch| ch.node.zip(ch.direction))
+    };
+    let responses: Vec<FrfPoint> = c
+        .outputs
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            let (node, dir) = stated(n).unwrap_or((i as i64 + 1, 1));
+            FrfPoint::named_at(n.as_str(), node, dir)
+        })
+        .collect();
+    let references = c
+        .inputs
+        .iter()
+        .enumerate()
+        .map(|(l, n)| match stated(n) {
+            Some((node, dir)) => FrfPoint::named_at(n.as_str(), node, dir),
+            None if l == collocated.1 => {
+                let (node, dir) = responses[collocated.0]
+                    .node_dir()
+                    .unwrap_or((collocated.0 as i64 + 1, 1));
+                FrfPoint::named_at(n.as_str(), node, dir)
+            }
+            None => FrfPoint::named(n.as_str()),
+        })
+        .collect();
+    (responses, references)
+}
+
+/// Writes `modes.uff` (UFF55: the modes of the model) and `model_frf.uff`
+/// (UFF58: the model's accelerance for each placed reference on
+/// `frequency_hz`) into `dir`, replacing a previous export.
+#[allow(clippy::too_many_arguments)]
+pub fn write_export(
+    dir: &std::path::Path,
+    responses: &[FrfPoint],
+    references: &[(FrfPoint, usize)],
+    frequencies_hz: &[f64],
+    damping_ratios: &[f64],
+    shapes: &DMatrix<C64>,
+    model: (&DMatrix<f64>, &DMatrix<f64>, &DMatrix<f64>),
+    grid_hz: &[f64],
+) -> Result<(), crate::StudyError> {
+    let out = fsio::OutputDir::create(dir, "modes.uff")?;
+    let modes = self::modes(responses, frequencies_hz, damping_ratios, shapes, model.0);
+    records::frf::write_uff55(&out.path().join("modes.uff"), &modes)?;
+    let names: Vec<String> = responses.iter().map(|p| p.name.clone()).collect();
+    let refs: Vec<String> = references.iter().map(|(p, _)| p.name.clone()).collect();
+    let dofs: Vec<usize> = references.iter().map(|(_, d)| *d).collect();
+    let frf = model_frf(model, &dofs, grid_hz, &names, &refs);
+    let points: Vec<FrfPoint> = references.iter().map(|(p, _)| p.clone()).collect();
+    let path = out.path().join("model_frf.uff");
+    let file = records::frf::FrfFile::from_frf(&path, &frf, responses, &points);
+    records::frf::write_frf(&path, &file, records::frf::FrfFormat::Uff58Ascii)?;
+    out.commit()?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

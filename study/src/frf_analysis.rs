@@ -571,3 +571,52 @@ pub fn bootstrap(
         damping_rayleigh_std: matrix_std(|r| &r.damping_rayleigh),
     })
 }
+
+/// Where each reference force acts: the output at the collocated
+/// reference's point is the collocated output; every other reference acts
+/// at the output whose point is its own, if any.
+pub fn reference_outputs(
+    set: &records::frf::FrfSet,
+    collocated: (usize, usize),
+) -> Vec<Option<usize>> {
+    set.references
+        .iter()
+        .enumerate()
+        .map(|(l, r)| {
+            if l == collocated.1 {
+                Some(collocated.0)
+            } else {
+                set.responses.iter().position(|p| p.same_point(r))
+            }
+        })
+        .collect()
+}
+
+/// Reads FRF files and collates them into one set. `references[k]` is the
+/// force point of file `k` when the file does not say it (headerless CSV),
+/// one for every file or a single one for all.
+pub fn read_frfs(
+    paths: &[std::path::PathBuf],
+    quantity: Option<ident::FrfQuantity>,
+    unit: Option<&str>,
+    references: &[records::frf::FrfPoint],
+    responses: Option<&[records::frf::FrfPoint]>,
+) -> Result<records::frf::FrfSet, records::RecordError> {
+    use records::frf::{AssembleOptions, FrfReadOptions, assemble, read_frf};
+    let files = paths
+        .iter()
+        .enumerate()
+        .map(|(k, path)| {
+            let opts = FrfReadOptions {
+                quantity,
+                unit: unit.map(str::to_string),
+                reference: references
+                    .get(if references.len() == 1 { 0 } else { k })
+                    .cloned(),
+                responses: responses.map(<[_]>::to_vec),
+            };
+            read_frf(path, &opts)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    assemble(&files, &AssembleOptions::default())
+}

@@ -252,3 +252,98 @@ pub fn estimate_frfs(
         warnings,
     })
 }
+
+/// What `frameid frf` did (`frf.json`, and `--json` on standard output).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct FrfSummary {
+    /// The record files given.
+    pub files: Vec<String>,
+    /// Hits (records) averaged.
+    pub hits_used: usize,
+    /// Files left out (quality or consistency), with the warnings saying why.
+    pub dropped: Vec<String>,
+    /// The excitation the averaging was chosen for (`hammer`, `continuous`).
+    pub excitation: String,
+    /// H1, H2 or Hv.
+    pub estimator: String,
+    /// Averages behind each line.
+    pub averages: usize,
+    /// FFT length, samples.
+    pub block_len: usize,
+    /// Line spacing, Hz.
+    pub resolution_hz: f64,
+    /// Lines written.
+    pub lines: usize,
+    /// First and last line, Hz.
+    pub band_hz: [f64; 2],
+    /// The windows and blocks used.
+    pub windows: ident::frf::estimate::AppliedWindows,
+    /// Time constant of the exponential window, s: its damping
+    /// (`1 / (tau omega)` of critical at `omega`) is in the FRFs and is
+    /// removed by `frameid identify`.
+    pub exponential_tau_s: Option<f64>,
+    /// Whether the hits were checked against a joint model as well as
+    /// against each other.
+    pub model_checks: bool,
+    /// Responses (outputs) and references (forces), in file order.
+    pub outputs: Vec<String>,
+    /// The references.
+    pub references: Vec<String>,
+    /// Lowest coherence of any pair over the lines, and its median.
+    pub coherence_min: f64,
+    /// Median coherence over the lines and pairs.
+    pub coherence_median: f64,
+    /// The files written, in the output directory.
+    pub written: Vec<String>,
+    /// Every warning, naming files and channels.
+    pub warnings: Vec<String>,
+}
+
+impl FrfSummary {
+    /// The summary of an estimate written as `written` (file names in the
+    /// output directory).
+    pub fn new(o: &FrfOutcome, files: &[std::path::PathBuf], written: Vec<String>) -> Self {
+        let frf = &o.estimate.frf;
+        let mut gamma: Vec<f64> = frf
+            .coherence
+            .iter()
+            .flatten()
+            .flat_map(|g| g.iter().copied())
+            .filter(|g| g.is_finite())
+            .collect();
+        gamma.sort_by(f64::total_cmp);
+        let n = frf.frequency_hz.len();
+        FrfSummary {
+            files: files.iter().map(|f| f.display().to_string()).collect(),
+            hits_used: o.campaign.records.len(),
+            dropped: o
+                .dropped
+                .iter()
+                .map(|&i| {
+                    files
+                        .get(i)
+                        .map_or(format!("#{i}"), |f| f.display().to_string())
+                })
+                .collect(),
+            excitation: o.excitation.label().to_string(),
+            estimator: o.estimate.estimator.to_string(),
+            averages: frf.averages.unwrap_or(0),
+            block_len: o.estimate.windows.block_len,
+            resolution_hz: 1.0 / (o.estimate.windows.block_len as f64 * o.campaign.dt_s),
+            lines: n,
+            band_hz: [
+                frf.frequency_hz.first().copied().unwrap_or(f64::NAN),
+                frf.frequency_hz.last().copied().unwrap_or(f64::NAN),
+            ],
+            windows: o.estimate.windows.clone(),
+            exponential_tau_s: o.estimate.windows.exponential_tau_s,
+            model_checks: o.model_checks,
+            outputs: frf.outputs.clone(),
+            references: frf.references.clone(),
+            coherence_min: gamma.first().copied().unwrap_or(f64::NAN),
+            coherence_median: gamma.get(gamma.len() / 2).copied().unwrap_or(f64::NAN),
+            written,
+            warnings: o.warnings.clone(),
+        }
+    }
+}

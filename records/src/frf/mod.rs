@@ -180,6 +180,37 @@ impl fmt::Display for FrfPoint {
     }
 }
 
+/// Reads `NAME` or `NAME@NODE:DIR` (`force@2:+X`; the direction as
+/// [`parse_direction`](crate::parse_direction) reads it), as command lines
+/// and scripts name points.
+impl std::str::FromStr for FrfPoint {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        let text = text.trim();
+        match text.split_once('@') {
+            None if !text.is_empty() => Ok(FrfPoint::named(text)),
+            None => Err("empty point name".into()),
+            Some((name, at)) => {
+                let (node, dir) = at.split_once(':').ok_or_else(|| {
+                    format!("expected NAME@NODE:DIR (e.g. force@2:+X), got '{text}'")
+                })?;
+                let node: i64 = node
+                    .trim()
+                    .parse()
+                    .map_err(|_| format!("node '{node}' of '{text}' is not an integer"))?;
+                let dir = crate::parse_direction(dir.trim()).ok_or_else(|| {
+                    format!("direction '{dir}' of '{text}' is not one of +X, -X, +Y, ..., +RZ (or 1..6, -1..-6)")
+                })?;
+                if name.trim().is_empty() {
+                    return Err(format!("'{text}' has no name before '@'"));
+                }
+                Ok(FrfPoint::named_at(name.trim(), node, dir))
+            }
+        }
+    }
+}
+
 pub(crate) fn default_name(node: i64, direction: i32) -> String {
     format!("{node}:{}", direction_label(direction))
 }
