@@ -259,7 +259,12 @@ impl OkidParams {
                     record: index,
                     samples: rec.len(),
                     required,
-                    reason: "observer order plus leads plus one (plus the observer order for an unknown initial state)",
+                    reason: match self.initial_state {
+                        InitialState::AtRest => "observer order plus leads plus one",
+                        InitialState::Unknown => {
+                            "twice the observer order plus leads plus one (unknown initial state)"
+                        }
+                    },
                 }
                 .into());
             }
