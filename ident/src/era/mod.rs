@@ -448,8 +448,8 @@ fn compressed_svd(
     {
         return Ok(None);
     }
-    let ql = basis_cols.qr().q();
-    let qr = row0t.qr().q();
+    let (ql, _) = linalg::thin_qr(&basis_cols);
+    let (qr, _) = linalg::thin_qr(&row0t);
     let t = ql.tr_mul(big0);
     let norm = big0.norm();
     let col_residual = (big0 - &ql * &t).norm();

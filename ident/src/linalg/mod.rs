@@ -273,6 +273,14 @@ impl ThinSvd {
     }
 }
 
+/// A matrix at least this many times longer than wide (or wider than long) is reduced by
+/// QR before its SVD: the SVD's rotations then run over vectors of the short side only.
+/// The triangular factor has the same singular values (QR is backward stable, so they
+/// keep their absolute accuracy of round-off times the largest) and its singular vectors
+/// map back through `Q`. At the 1:3 shape of the ERA Hankel matrices this takes about a
+/// third of the instructions of the direct SVD (measured with callgrind).
+const QR_FIRST_RATIO: usize = 2;
+
 /// Thin SVD with singular values in descending order.
 pub fn thin_svd(m: &DMatrix<f64>) -> Result<ThinSvd, LinalgError> {
     ensure_finite(m, "matrix")?;
@@ -285,6 +293,124 @@ pub fn thin_svd(m: &DMatrix<f64>) -> Result<ThinSvd, LinalgError> {
             v: DMatrix::zeros(cols, k),
         });
     }
+    if rows >= QR_FIRST_RATIO * cols {
+        // M = Q R, R = U S V^T: M = (Q U) S V^T.
+        let (q, r) = thin_qr(m);
+        let inner = square_svd(&r, rows, cols)?;
+        return Ok(ThinSvd {
+            u: q * inner.u,
+            s: inner.s,
+            v: inner.v,
+        });
+    }
+    if cols >= QR_FIRST_RATIO * rows {
+        // M^T = Q R, R^T = U S W^T: M = U S (Q W)^T.
+        let (q, r) = thin_qr(&m.transpose());
+        let inner = square_svd(&r.transpose(), rows, cols)?;
+        return Ok(ThinSvd {
+            u: inner.u,
+            s: inner.s,
+            v: q * inner.v,
+        });
+    }
+    square_svd(m, rows, cols)
+}
+
+/// Thin QR factorization `M = Q R` of a matrix with at least as many rows as columns: `Q`
+/// rows x cols with orthonormal columns, `R` cols x cols upper triangular. Householder
+/// reflections on contiguous column slices (nalgebra's `QR::q` forms `Q` through generic
+/// strided reflections, several times slower at the sizes of the ERA matrices); matrices
+/// wider than long go to nalgebra.
+pub fn thin_qr(m: &DMatrix<f64>) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (rows, cols) = m.shape();
+    if rows < cols {
+        let qr = m.clone().qr();
+        return (qr.q(), qr.r());
+    }
+    let mut a = m.clone();
+    let mut betas = vec![0.0; cols];
+    let mut diag = vec![0.0; cols];
+    {
+        let data = a.as_mut_slice();
+        for k in 0..cols {
+            let (head, tail) = data.split_at_mut((k + 1) * rows);
+            let v = &mut head[k * rows + k..];
+            let norm = dot(v, v).sqrt();
+            let alpha = v[0];
+            let s = if alpha >= 0.0 { -norm } else { norm };
+            diag[k] = s;
+            let v0 = alpha - s;
+            let vnorm2 = v0 * v0 + (norm * norm - alpha * alpha).max(0.0);
+            if norm == 0.0 || vnorm2 == 0.0 {
+                betas[k] = 0.0;
+                diag[k] = alpha;
+                continue;
+            }
+            v[0] = v0;
+            let beta = 2.0 / dot(v, v);
+            betas[k] = beta;
+            for j in k + 1..cols {
+                let col = &mut tail[(j - k - 1) * rows + k..(j - k) * rows];
+                let w = beta * dot(v, col);
+                for (c, x) in col.iter_mut().zip(v.iter()) {
+                    *c -= w * x;
+                }
+            }
+        }
+    }
+    let mut r = DMatrix::zeros(cols, cols);
+    for j in 0..cols {
+        for i in 0..j {
+            r[(i, j)] = a[(i, j)];
+        }
+        r[(j, j)] = diag[j];
+    }
+    // Q = H_0 ... H_(cols-1) [I; 0], accumulated backwards: H_k acts on rows k.. and only
+    // columns k.. of the partial product are nonzero there.
+    let mut q = DMatrix::zeros(rows, cols);
+    for j in 0..cols {
+        q[(j, j)] = 1.0;
+    }
+    let vs = a.as_slice();
+    let qd = q.as_mut_slice();
+    for k in (0..cols).rev() {
+        let beta = betas[k];
+        if beta == 0.0 {
+            continue;
+        }
+        let v = &vs[k * rows + k..(k + 1) * rows];
+        for j in k..cols {
+            let col = &mut qd[j * rows + k..(j + 1) * rows];
+            let w = beta * dot(v, col);
+            for (c, x) in col.iter_mut().zip(v) {
+                *c -= w * x;
+            }
+        }
+    }
+    (q, r)
+}
+
+/// `a . b` (`b` at least as long as `a`) with four independent partial sums, which the
+/// compiler keeps in vector registers.
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let b = &b[..a.len()];
+    let mut acc = [0.0; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for k in 0..4 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    let mut tail = 0.0;
+    for (x, y) in ra.iter().zip(rb) {
+        tail += x * y;
+    }
+    (acc[0] + acc[2]) + (acc[1] + acc[3]) + tail
+}
+
+/// Thin SVD by nalgebra (`rows` x `cols` is the shape reported on failure).
+fn square_svd(m: &DMatrix<f64>, rows: usize, cols: usize) -> Result<ThinSvd, LinalgError> {
     let svd = SVD::try_new(
         m.clone(),
         true,

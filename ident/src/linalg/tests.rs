@@ -152,3 +152,36 @@ fn non_finite_input_is_an_error() {
     ));
     assert!(thin_svd(&a).is_err());
 }
+
+/// `thin_qr` reproduces the matrix with orthonormal `Q` and upper triangular `R`, also for
+/// rank-deficient and zero columns.
+#[test]
+fn thin_qr_factors_tall_matrices() {
+    let mut a = DMatrix::from_fn(37, 9, |i, j| {
+        ((i * 7 + j * 13) % 11) as f64 - 5.0 + 0.1 * j as f64
+    });
+    // A repeated column and a zero column.
+    let c = a.column(2).into_owned();
+    a.set_column(5, &c);
+    a.column_mut(7).fill(0.0);
+    for m in [
+        a.clone(),
+        DMatrix::from_fn(6, 6, |i, j| 1.0 / (i + j + 1) as f64),
+    ] {
+        let (q, r) = thin_qr(&m);
+        assert_eq!(
+            (q.shape(), r.shape()),
+            ((m.nrows(), m.ncols()), (m.ncols(), m.ncols()))
+        );
+        let scale = m.norm().max(1.0);
+        // Round-off of Householder QR: a few eps times the norm (measured below 1e-14).
+        assert!((&q * &r - &m).norm() <= 1e-13 * scale);
+        let qtq = q.transpose() * &q;
+        assert!((qtq - DMatrix::identity(m.ncols(), m.ncols())).norm() <= 1e-13);
+        for j in 0..r.ncols() {
+            for i in j + 1..r.nrows() {
+                assert_eq!(r[(i, j)], 0.0);
+            }
+        }
+    }
+}

@@ -118,8 +118,10 @@ pub(crate) fn cholesky(a: &[C64], m: usize, l: &mut [C64]) -> bool {
 }
 
 /// Solves `l x = b` in place for lower triangular `l` (m x m) and `c` right-hand sides
-/// stored column-major in `x` (m x c).
+/// stored column-major in `x` (m x c). A diagonal with zero imaginary parts (every
+/// Cholesky factor of [`cholesky`]) is divided as real numbers.
 pub(crate) fn forward_solve(l: &[C64], m: usize, x: &mut [C64], c: usize) {
+    let real_diagonal = (0..m).all(|i| l[i + i * m].im == 0.0);
     for col in 0..c {
         let x = &mut x[col * m..(col + 1) * m];
         for i in 0..m {
@@ -127,7 +129,11 @@ pub(crate) fn forward_solve(l: &[C64], m: usize, x: &mut [C64], c: usize) {
             for k in 0..i {
                 s -= l[i + k * m] * x[k];
             }
-            x[i] = s / l[i + i * m];
+            x[i] = if real_diagonal {
+                s / l[i + i * m].re
+            } else {
+                s / l[i + i * m]
+            };
         }
     }
 }

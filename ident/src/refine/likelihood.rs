@@ -242,6 +242,17 @@ pub(crate) fn eliminate_nuisance(
     (f, jt * r)
 }
 
+/// `(re, im) += w c` elementwise, `w` given by its real and imaginary parts.
+#[inline]
+fn complex_axpy(re: &mut [f64], im: &mut [f64], w_re: &[f64], w_im: &[f64], c: C64) {
+    let n = re.len();
+    let (im, w_re, w_im) = (&mut im[..n], &w_re[..n], &w_im[..n]);
+    for p in 0..n {
+        re[p] += w_re[p] * c.re - w_im[p] * c.im;
+        im[p] += w_re[p] * c.im + w_im[p] * c.re;
+    }
+}
+
 /// Row of the real and imaginary parts of channel `i` at bin index `bi`.
 #[inline]
 fn row(bi: usize, m: usize, i: usize) -> usize {
@@ -327,15 +338,20 @@ pub(crate) fn evaluate(
     ];
     let mut e = vec![ZERO; m];
     let mut tx = vec![ZERO; m * s];
+    // Upper triangle of `sum_h J_h^T J_h` over all groups; the nuisance terms are
+    // subtracted per hit and the lower triangle mirrored at the end.
+    let mut jtj = vec![0.0; np * np];
     for group in &spectra.groups {
         let nb = group.bins.len();
         let rows = 2 * nb * m;
         let sc_of = |bin: &Bin| (bin.weight / group.len as f64).sqrt();
-        // Transposed storage (one column per real observation): writes are contiguous.
-        let mut xts: Vec<DMatrix<f64>> =
-            group.hits.iter().map(|_| DMatrix::zeros(s, rows)).collect();
+        // The whitened, scaled transient regressors `X` (rows `row(bi, m, i)` and the next:
+        // real and imaginary parts of `xw[bi m s + i + q m]`, column `q`) do not depend on
+        // the hit: one copy per group, and one `X^T X`.
+        let mut xw = vec![ZERO; nb * m * s];
         let mut rs: Vec<DVector<f64>> = group.hits.iter().map(|_| DVector::zeros(rows)).collect();
         let mut cache = Cache::new(&work, nb);
+        let mut xtx = DMatrix::<f64>::zeros(s, s);
 
         // Pass 1: residual without transient, transient regressors.
         for (bi, bin) in group.bins.iter().enumerate() {
@@ -346,6 +362,20 @@ pub(crate) fn evaluate(
                 *v = c * bin.z;
             }
             dense::forward_solve(&work.l, m, &mut tx, s);
+            let xb = &mut xw[bi * m * s..(bi + 1) * m * s];
+            for (x, t) in xb.iter_mut().zip(&tx) {
+                *x = t * sc;
+            }
+            for q2 in 0..s {
+                for q1 in 0..=q2 {
+                    let mut acc = 0.0;
+                    for i in 0..m {
+                        let (a, b) = (xb[i + q1 * m], xb[i + q2 * m]);
+                        acc += a.re * b.re + a.im * b.im;
+                    }
+                    xtx[(q1, q2)] += acc;
+                }
+            }
             for (slot, &h) in group.hits.iter().enumerate() {
                 let (y, u) = (&spectra.y[h], &spectra.u[h]);
                 for i in 0..m {
@@ -356,17 +386,17 @@ pub(crate) fn evaluate(
                     e[i] = v;
                 }
                 dense::forward_solve(&work.l, m, &mut e, 1);
-                let xt = &mut xts[slot];
                 let rv = &mut rs[slot];
                 for i in 0..m {
                     let ro = row(bi, m, i);
                     rv[ro] = sc * e[i].re;
                     rv[ro + 1] = sc * e[i].im;
-                    for q in 0..s {
-                        xt[(q, ro)] = sc * tx[i + q * m].re;
-                        xt[(q, ro + 1)] = sc * tx[i + q * m].im;
-                    }
                 }
+            }
+        }
+        for q2 in 0..s {
+            for q1 in 0..q2 {
+                xtx[(q2, q1)] = xtx[(q1, q2)];
             }
         }
         if let Some(all) = gains.as_mut() {
@@ -374,33 +404,65 @@ pub(crate) fn evaluate(
                 cache.g[bi * m * r + idx].norm_sqr()
             }));
         }
+        // `X^T v` and `v - X sol` on the realified rows.
+        let xt_mul = |v: &DVector<f64>| -> DVector<f64> {
+            let mut out = DVector::zeros(s);
+            for bi in 0..nb {
+                let xb = &xw[bi * m * s..(bi + 1) * m * s];
+                for i in 0..m {
+                    let ro = row(bi, m, i);
+                    let (vr, vi) = (v[ro], v[ro + 1]);
+                    for q in 0..s {
+                        let x = xb[i + q * m];
+                        out[q] += x.re * vr + x.im * vi;
+                    }
+                }
+            }
+            out
+        };
+        let sub_x = |v: &mut DVector<f64>, sol: &DVector<f64>| {
+            for bi in 0..nb {
+                let xb = &xw[bi * m * s..(bi + 1) * m * s];
+                for i in 0..m {
+                    let ro = row(bi, m, i);
+                    let mut acc = ZERO;
+                    for q in 0..s {
+                        acc += xb[i + q * m] * sol[q];
+                    }
+                    v[ro] -= acc.re;
+                    v[ro + 1] -= acc.im;
+                }
+            }
+        };
 
         #[cfg(test)]
         let r0s = rs.clone();
         // Transients by least squares, projected residuals.
-        let mut xtx_invs = Vec::with_capacity(group.hits.len());
+        let xtx_inv = spd_inverse(&xtx);
         for (slot, &h) in group.hits.iter().enumerate() {
-            let xt = &xts[slot];
-            let xtx_inv = spd_inverse(&(xt * xt.transpose()));
-            let mut sol = &xtx_inv * (xt * &rs[slot]);
-            rs[slot] -= xt.tr_mul(&sol);
+            let mut sol = &xtx_inv * xt_mul(&rs[slot]);
+            sub_x(&mut rs[slot], &sol);
             // One step of iterative refinement: the normal equations square the condition
             // number, and the gradient J^T r is exact only for r orthogonal to X.
-            let correction = &xtx_inv * (xt * &rs[slot]);
-            rs[slot] -= xt.tr_mul(&correction);
+            let correction = &xtx_inv * xt_mul(&rs[slot]);
+            sub_x(&mut rs[slot], &correction);
             sol += correction;
             cost += rs[slot].norm_squared();
             xi[h] = sol;
-            xtx_invs.push(xtx_inv);
         }
         if !cost.is_finite() {
             return Err(Singular);
         }
         #[cfg(test)]
         for (slot, &h) in group.hits.iter().enumerate() {
+            let x = DMatrix::from_fn(rows, s, |ro, q| {
+                let (bi, i) = (ro / 2 / m, ro / 2 % m);
+                let v = xw[bi * m * s + i + q * m];
+                if ro % 2 == 0 { v.re } else { v.im }
+            });
             matrices[h] = HitMatrices {
                 r0: r0s[slot].clone(),
-                x: xts[slot].transpose(),
+                x,
                 j: None,
             };
         }
@@ -424,14 +486,19 @@ pub(crate) fn evaluate(
             }
         }
 
-        // Pass 2: Jacobian with respect to the parameters at fixed transients.
+        // Pass 2: Jacobian with respect to the parameters at fixed transients, reduced on
+        // the fly to `J^T J` (all hits), `J^T X` and `J^T r` (per hit).
         let (Some(weight_derivative), Some(der)) = (jac, derivs) else {
             continue;
         };
+        let hits_here = group.hits.len();
+        let mut jtx = vec![0.0; hits_here * np * s];
+        let mut jtr = vec![0.0; hits_here * np];
+        #[cfg(test)]
         let mut jts: Vec<DMatrix<f64>> = group
             .hits
             .iter()
-            .map(|_| DMatrix::zeros(np, rows))
+            .map(|_| DMatrix::zeros(rows, np))
             .collect();
         let mut ma = vec![ZERO; np * m * s];
         let mut dg = vec![ZERO; np * m * r];
@@ -439,8 +506,14 @@ pub(crate) fn evaluate(
         let mut bw = vec![ZERO; m * r];
         let mut aw = vec![ZERO; m * r];
         let mut eg = vec![ZERO; n * r];
-        let mut v = vec![ZERO; s];
-        let mut rt = vec![ZERO; m];
+        let nt = r + s + m;
+        let mut coef = vec![ZERO; nt];
+        let mut wre = vec![0.0; m * nt * np];
+        let mut wim = vec![0.0; m * nt * np];
+        let mut xre = vec![0.0; m * s];
+        let mut xim = vec![0.0; m * s];
+        let mut jre = vec![0.0; np];
+        let mut jim = vec![0.0; np];
         let bases: Vec<DMatrix<C64>> = params
             .iter()
             .map(|p| p.basis.map(|x| C64::new(x, 0.0)))
@@ -450,6 +523,7 @@ pub(crate) fn evaluate(
             let cr = slice(&cache.cr, bi, m * s);
             let g = slice(&cache.g, bi, m * r);
             let l = slice(&cache.l, bi, m * m);
+            let xb = &xw[bi * m * s..(bi + 1) * m * s];
             let sc = sc_of(bin);
             for p in 0..np {
                 let ma_p = &mut ma[p * m * s..(p + 1) * m * s];
@@ -509,55 +583,123 @@ pub(crate) fn evaluate(
                     }
                 }
             }
+            // Row `i` of a hit's Jacobian is `-sum_t W_it c_t` over the terms `t`: the
+            // input DFTs (`dG`), the transient's state response (`dA_d`, `dC`) and, with the
+            // weight derivative, the whitened residuals (`Phi`). `W` (scaled by `-sc`) is
+            // stored split into real and imaginary parts with the parameter index
+            // innermost, so that the per-hit sums run over contiguous parameters.
+            let terms_of = |i: usize| r + s + if weight_derivative { i + 1 } else { 0 };
+            for i in 0..m {
+                for t in 0..terms_of(i) {
+                    let base = (i * nt + t) * np;
+                    for p in 0..np {
+                        let w = if t < r {
+                            dg[p * m * r + i + t * m]
+                        } else if t < r + s {
+                            ma[p * m * s + i + (t - r) * m]
+                        } else {
+                            phi[p * m * m + i + (t - r - s) * m]
+                        } * -sc;
+                        wre[base + p] = w.re;
+                        wim[base + p] = w.im;
+                    }
+                }
+                for q in 0..s {
+                    xre[i * s + q] = xb[i + q * m].re;
+                    xim[i * s + q] = xb[i + q * m].im;
+                }
+            }
             for (slot, &h) in group.hits.iter().enumerate() {
                 let u = &spectra.u[h];
                 let xi_h = &xi[h];
+                let rv = &rs[slot];
+                for li in 0..r {
+                    coef[li] = u[(li, bi)];
+                }
                 for i in 0..s {
                     let mut acc = ZERO;
                     for q in 0..s {
                         acc += res[i + q * s] * xi_h[q];
                     }
-                    v[i] = acc * bin.z;
+                    coef[r + i] = acc * bin.z;
                 }
                 if weight_derivative {
                     for i in 0..m {
                         let ro = row(bi, m, i);
-                        rt[i] = C64::new(rs[slot][ro], rs[slot][ro + 1]) / sc;
+                        coef[r + s + i] = C64::new(rv[ro], rv[ro + 1]) / sc;
                     }
                 }
-                let jt = &mut jts[slot];
+                let jtx_h = &mut jtx[slot * np * s..(slot + 1) * np * s];
+                let jtr_h = &mut jtr[slot * np..(slot + 1) * np];
                 for i in 0..m {
                     let ro = row(bi, m, i);
+                    jre.fill(0.0);
+                    jim.fill(0.0);
+                    for (t, c) in coef[..terms_of(i)].iter().enumerate() {
+                        let base = (i * nt + t) * np;
+                        complex_axpy(
+                            &mut jre,
+                            &mut jim,
+                            &wre[base..base + np],
+                            &wim[base..base + np],
+                            *c,
+                        );
+                    }
+                    #[cfg(test)]
                     for p in 0..np {
-                        let ma_p = &ma[p * m * s..(p + 1) * m * s];
-                        let dg_p = &dg[p * m * r..(p + 1) * m * r];
-                        let mut col = ZERO;
-                        for li in 0..r {
-                            col -= dg_p[i + li * m] * u[(li, bi)];
+                        jts[slot][(ro, p)] = jre[p];
+                        jts[slot][(ro + 1, p)] = jim[p];
+                    }
+                    let (rr, ri) = (rv[ro], rv[ro + 1]);
+                    let (x_re, x_im) = (&xre[i * s..(i + 1) * s], &xim[i * s..(i + 1) * s]);
+                    for p in 0..np {
+                        let (a, b) = (jre[p], jim[p]);
+                        let row_p = &mut jtj[p * np + p..(p + 1) * np];
+                        for ((acc, &c), &d) in row_p.iter_mut().zip(&jre[p..]).zip(&jim[p..]) {
+                            *acc += a * c + b * d;
                         }
-                        for q in 0..s {
-                            col -= ma_p[i + q * m] * v[q];
+                        let jx = &mut jtx_h[p * s..(p + 1) * s];
+                        for ((acc, &c), &d) in jx.iter_mut().zip(x_re).zip(x_im) {
+                            *acc += a * c + b * d;
                         }
-                        if weight_derivative {
-                            let ph = &phi[p * m * m..(p + 1) * m * m];
-                            for k in 0..=i {
-                                col -= ph[i + k * m] * rt[k];
-                            }
-                        }
-                        jt[(p, ro)] = sc * col.re;
-                        jt[(p, ro + 1)] = sc * col.im;
+                        jtr_h[p] += a * rr + b * ri;
                     }
                 }
             }
         }
-        for slot in 0..group.hits.len() {
-            let (f, g) = eliminate_nuisance(&jts[slot], &xts[slot], &xtx_invs[slot], &rs[slot]);
-            fisher += f;
-            gradient += g;
+        // `J^T J - J^T X (X^T X)^-1 X^T J` per hit (upper triangle), `J^T r`.
+        let mut t = vec![0.0; np * s];
+        for slot in 0..hits_here {
+            let jtx_h = &jtx[slot * np * s..(slot + 1) * np * s];
+            for p in 0..np {
+                for k in 0..s {
+                    let mut acc = 0.0;
+                    for q in 0..s {
+                        acc += jtx_h[p * s + q] * xtx_inv[(q, k)];
+                    }
+                    t[p * s + k] = acc;
+                }
+            }
+            for p in 0..np {
+                for q in p..np {
+                    let mut acc = 0.0;
+                    for k in 0..s {
+                        acc += t[p * s + k] * jtx_h[q * s + k];
+                    }
+                    jtj[p * np + q] -= acc;
+                }
+                gradient[p] += jtr[slot * np + p];
+            }
         }
         #[cfg(test)]
         for (slot, &h) in group.hits.iter().enumerate() {
-            matrices[h].j = Some(jts[slot].transpose());
+            matrices[h].j = Some(jts[slot].clone());
+        }
+    }
+    for p in 0..np {
+        for q in p..np {
+            fisher[(p, q)] = jtj[p * np + q];
+            fisher[(q, p)] = jtj[p * np + q];
         }
     }
     let has_jac = jac.is_some();
