@@ -331,8 +331,8 @@ mod tests {
             assert!(out.inputs[(0, k)].abs() < 1e-4, "k = {k}");
         }
         // Every kept sample's filter lies inside the record.
-        assert!(8 * (out.len() - 1) + half <= n - 1);
-        assert!(8 * out.len() + half > n - 1);
+        assert!(8 * (out.len() - 1) + half < n);
+        assert!(8 * out.len() + half >= n);
     }
 
     #[test]
