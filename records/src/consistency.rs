@@ -1046,6 +1046,26 @@ mod tests {
         );
     }
 
+    /// Hits of very different lengths: a transient's RMS falls with the
+    /// record's length (1024 against 204800 samples: 23 dB), its energy
+    /// does not; no level flag. A quiet force in a hit of the usual length
+    /// is still one.
+    #[test]
+    fn hits_of_different_lengths_are_compared_by_energy_too() {
+        let mut c = campaign(6);
+        c.records[2] = hit(2, 200 * 1024, 1e-6);
+        let r = check(&c);
+        assert!(
+            !r.flags.iter().any(|f| f.kind == Inconsistency::Level),
+            "{:#?}",
+            r.flags
+        );
+        c.records[4].inputs.scale_mut(1e-2);
+        let r = check(&c);
+        assert_eq!(r.flagged_records(), [4], "{:#?}", r.flags);
+        assert_eq!(r.flags[0].kind, Inconsistency::Level);
+    }
+
     #[test]
     fn copied_force_column() {
         let mut c = campaign(6);

@@ -260,8 +260,33 @@ pub fn time_report(
             },
         ),
     ];
+    let d = &analysis.decimation;
+    if d.factor > 1 {
+        source.push(setup_row(
+            "Decimation",
+            format!(
+                "by {} from {} Hz{}: {}",
+                d.factor,
+                reports_sig(d.original_rate_hz),
+                d.filter.as_ref().map_or(String::new(), |f| format!(
+                    " (zero-phase Kaiser FIR, {} taps, pass band to {} Hz, {} dB from {} Hz)",
+                    f.taps,
+                    reports_sig(f.passband_hz),
+                    f.attenuation_db,
+                    reports_sig(f.stopband_hz)
+                )),
+                d.reason
+            ),
+        ));
+    }
+    // The identifier as run: with the initial state the analysis assumed.
+    let mut identifier = settings.identifier.clone();
+    if let Some(state) = &analysis.initial_state {
+        identifier = identifier.initial_state(state.assumed);
+        source.push(setup_row("Initial state", state.reason.clone()));
+    }
 
-    let stabilization = match settings.identifier.check().and_then(|v| {
+    let stabilization = match identifier.check().and_then(|v| {
         v.stabilization(
             &c.records,
             c.dt_s,

@@ -332,7 +332,7 @@ mod tests {
         }
         // Every kept sample's filter lies inside the record.
         assert!(8 * (out.len() - 1) + half < n);
-        assert!(8 * out.len() + half > n - 1);
+        assert!(8 * out.len() + half >= n);
     }
 
     #[test]
