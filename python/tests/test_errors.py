@@ -50,10 +50,14 @@ def test_record_file_errors_match_the_cli(cli, hits, tmp_path):
     for name, path in bad.items():
         expected = cli_message(cli, "identify", path)
         assert py_message(frameid.read_records, [path]) == expected, name
-    # Records of different lengths.
-    short = write(tmp_path / "short.csv", "time,force,acc1,acc2\n0,0,0,0\n0.015625,1,0,0\n")
-    expected = cli_message(cli, "identify", hits[0], short)
-    assert py_message(frameid.read_records, [hits[0], short]) == expected
+    # Records of different sampling intervals (different lengths are one
+    # campaign; different rates are refused).
+    other = write(
+        tmp_path / "other_rate.csv",
+        "time,force,acc1,acc2\n0,0,0,0\n0.03125,1,0,0\n0.0625,0,0.1,0\n",
+    )
+    expected = cli_message(cli, "identify", hits[0], other)
+    assert py_message(frameid.read_records, [hits[0], other]) == expected
 
 
 def test_channel_errors_match_the_cli(cli, hits):
