@@ -184,7 +184,7 @@ fn data_errors_are_typed() {
             record: 1,
             samples: 12,
             required: 13,
-            reason: "observer order plus leads plus one (plus the observer order for an unknown initial state)",
+            reason: "observer order plus leads plus one",
         }))
     );
 
