@@ -56,19 +56,22 @@ fn exported_as_identified(dir: &Path, v: &Value) {
     assert_eq!(frf.pairs.len(), 2, "two responses to one reference");
     // The model's accelerance, as the JSON's M, K and Rayleigh damping
     // give it, at every 100th line: the ASCII file keeps 13 significant
-    // digits (measured agreement 1e-13); 1e-10 allows for the JSON's
+    // digits (measured agreement 2e-13); 1e-10 allows for the JSON's
     // shortest round-trip digits and the solve.
+    let mut worst: f64 = 0.0;
     for pair in &frf.pairs {
         let i = if pair.response.name == "acc1" { 0 } else { 1 };
         for k in (1..frf.frequency_hz.len()).step_by(100) {
             let h = model_accelerance(v, 0, frf.frequency_hz[k])[i];
             let got = pair.values[k];
+            worst = worst.max((got - h).norm() / h.norm());
             assert!(
                 (got - h).norm() <= 1e-10 * h.norm(),
                 "line {k}: {got} against {h}"
             );
         }
     }
+    eprintln!("exported model FRF against the JSON's model: {worst:.1e}");
 }
 
 #[test]
@@ -359,7 +362,7 @@ fn shaker_runs_give_welch_frfs_that_identify_the_frame() {
         "shaker FRFs: M {m:.2e}, K {k:.2e}, damping {}",
         v["damping_ratios"]
     );
-    // Measured M 2.4e-3, K below it; the time route on these runs gives
+    // Measured M 2.4e-3, K 3.4e-3; the time route on these runs gives
     // 0.3-0.5 % (tests/cli_shaker.rs). 1 % is the shaker tests' tolerance.
     assert!(m < 0.01 && k < 0.01, "M {m}, K {k}");
     // The Hann window's leakage on 16 s segments lifts the first mode's

@@ -733,48 +733,6 @@ impl FrfResult {
     }
 }
 
-/// The points of a campaign's outputs and inputs (as `frameid frf` writes
-/// them): each channel's UFF node and direction when its file states them,
-/// else node = floor, direction +X; an input without them at its
-/// collocated output's point.
-fn record_points(
-    files: Option<&[records::RecordFile]>,
-    c: &ident::Campaign,
-    collocated: (usize, usize),
-) -> (Vec<FrfPoint>, Vec<FrfPoint>) {
-    let stated = |name: &str| {
-        files
-            .and_then(|f| f.first())
-            .and_then(|f| f.channels.iter().find(|ch| ch.name == name))
-            .and_then(|ch| ch.node.zip(ch.direction))
-    };
-    let responses: Vec<FrfPoint> = c
-        .outputs
-        .iter()
-        .enumerate()
-        .map(|(i, n)| {
-            let (node, dir) = stated(n).unwrap_or((i as i64 + 1, 1));
-            FrfPoint::named_at(n.as_str(), node, dir)
-        })
-        .collect();
-    let references = c
-        .inputs
-        .iter()
-        .enumerate()
-        .map(|(l, n)| match stated(n) {
-            Some((node, dir)) => FrfPoint::named_at(n.as_str(), node, dir),
-            None if l == collocated.1 => {
-                let (node, dir) = responses[collocated.0]
-                    .node_dir()
-                    .unwrap_or((collocated.0 as i64 + 1, 1));
-                FrfPoint::named_at(n.as_str(), node, dir)
-            }
-            None => FrfPoint::named(n.as_str()),
-        })
-        .collect();
-    (responses, references)
-}
-
 /// FRFs of a campaign with coherence, screened as ``frameid frf`` screens
 /// them (the quality of every hit, each hit against the others and against
 /// the joint model; failing hits are dropped with a warning, or with
@@ -902,8 +860,11 @@ fn frf(
                 None => estimate_frfs(c, &ByPosition, &settings),
             }
             .map_err(lib_error)?;
-            let (responses, references) =
-                record_points(files.as_deref(), &outcome.campaign, collocated);
+            let (responses, references) = study::export::record_points(
+                files.as_deref().unwrap_or(&[]),
+                &outcome.campaign,
+                collocated,
+            );
             let frf = &outcome.estimate.frf;
             let windows = &outcome.estimate.windows;
             // The FRFs with their points collated as a file of them would

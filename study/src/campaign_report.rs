@@ -12,6 +12,7 @@ use ident::frf::estimate::FrfParams;
 use ident::pipeline::{Stability, StabilizationCriteria};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
+use records::numfmt::sig;
 use records::quality::{Excitation, HitQuality};
 use reports::model as rm;
 
@@ -218,8 +219,8 @@ pub fn time_report(
             "Sampling",
             format!(
                 "{} Hz ({} s), {samples_text}",
-                reports_sig(1.0 / c.dt_s),
-                reports_sig(c.dt_s)
+                sig(1.0 / c.dt_s, 6),
+                sig(c.dt_s, 6)
             ),
         ),
         setup_row("Inputs", c.inputs.join(", ")),
@@ -267,13 +268,13 @@ pub fn time_report(
             format!(
                 "by {} from {} Hz{}: {}",
                 d.factor,
-                reports_sig(d.original_rate_hz),
+                sig(d.original_rate_hz, 6),
                 d.filter.as_ref().map_or(String::new(), |f| format!(
                     " (zero-phase Kaiser FIR, {} taps, pass band to {} Hz, {} dB from {} Hz)",
                     f.taps,
-                    reports_sig(f.passband_hz),
+                    sig(f.passband_hz, 6),
                     f.attenuation_db,
-                    reports_sig(f.stopband_hz)
+                    sig(f.stopband_hz, 6)
                 )),
                 d.reason
             ),
@@ -371,57 +372,30 @@ pub fn time_report(
         }
     };
 
-    let spread = analysis.uncertainty.as_ref();
-    let mut tables = vec![
-        table(
-            "Natural frequencies",
-            "Hz",
-            (0..id.frequencies_hz.len())
-                .map(|j| rm::ValueRow {
-                    label: format!("f{}", j + 1),
-                    value: id.frequencies_hz[j],
-                    std: spread.and_then(|s| s.frequencies_hz.std.get(j).copied()),
-                })
-                .collect(),
-        ),
-        table(
-            "Damping ratios",
-            "%",
-            (0..id.damping_ratios.len())
-                .map(|j| rm::ValueRow {
-                    label: format!("xi{}", j + 1),
-                    value: 100.0 * id.damping_ratios[j],
-                    std: spread.and_then(|s| s.damping_ratios.std.get(j).map(|v| 100.0 * v)),
-                })
-                .collect(),
-        ),
-        table(
-            "Mass matrix M",
-            "kg",
-            matrix_rows("M", &id.mass, |i, j| spread.map(|s| s.mass.std[i][j])),
-        ),
-        table(
-            "Stiffness matrix K",
-            "N/m",
-            matrix_rows("K", &id.stiffness, |i, j| {
-                spread.map(|s| s.stiffness.std[i][j])
-            }),
-        ),
-        table(
-            "Damping matrix, MKR",
-            "N s/m",
-            matrix_rows("R", &id.damping_mkr, |i, j| {
-                spread.map(|s| s.damping_mkr.std[i][j])
-            }),
-        ),
-        table(
-            "Damping matrix, Rayleigh",
-            "N s/m",
-            matrix_rows("R", &id.damping_rayleigh, |i, j| {
-                spread.map(|s| s.damping_rayleigh.std[i][j])
-            }),
-        ),
-    ];
+    let mut tables = identified_tables(
+        &id.frequencies_hz,
+        &id.damping_ratios,
+        [
+            &id.mass,
+            &id.stiffness,
+            &id.damping_mkr,
+            &id.damping_rayleigh,
+        ],
+        analysis.uncertainty.as_ref().map(|s| {
+            (
+                [
+                    s.frequencies_hz.std.as_slice(),
+                    s.damping_ratios.std.as_slice(),
+                ],
+                [
+                    s.mass.std.as_slice(),
+                    s.stiffness.std.as_slice(),
+                    s.damping_mkr.std.as_slice(),
+                    s.damping_rayleigh.std.as_slice(),
+                ],
+            )
+        }),
+    );
     if let Some(r) = &analysis.refinement {
         tables.extend(refined_tables(
             &r.mass,
@@ -511,13 +485,49 @@ fn measured_against_model(
     out
 }
 
-/// A number with at most six decimals, trailing zeros dropped.
-fn reports_sig(v: f64) -> String {
-    if !v.is_finite() {
-        return "—".into();
-    }
-    let s = format!("{v:.6}");
-    s.trim_end_matches('0').trim_end_matches('.').to_string()
+/// Standard errors of an identification: frequencies and damping ratios;
+/// M, K, MKR and Rayleigh damping as rows.
+type Spreads<'a> = ([&'a [f64]; 2], [&'a [Vec<f64>]; 4]);
+
+/// The tables of an identification: frequencies, damping ratios (in %),
+/// M, K, MKR and Rayleigh damping, with standard errors where `std` gives
+/// them (frequencies and damping ratios; the four matrices as rows).
+fn identified_tables(
+    frequencies_hz: &[f64],
+    damping_ratios: &[f64],
+    [mass, stiffness, damping_mkr, damping_rayleigh]: [&DMatrix<f64>; 4],
+    std: Option<Spreads<'_>>,
+) -> Vec<rm::ValueTable> {
+    let modal = |label: &str, scale: f64, values: &[f64], which: usize| -> Vec<rm::ValueRow> {
+        values
+            .iter()
+            .enumerate()
+            .map(|(j, &v)| rm::ValueRow {
+                label: format!("{label}{}", j + 1),
+                value: scale * v,
+                std: std.and_then(|(m, _)| m[which].get(j).map(|s| scale * s)),
+            })
+            .collect()
+    };
+    let matrix = |prefix: &str, m: &DMatrix<f64>, which: usize| {
+        matrix_rows(prefix, m, |i, j| std.map(|(_, s)| s[which][i][j]))
+    };
+    vec![
+        table(
+            "Natural frequencies",
+            "Hz",
+            modal("f", 1.0, frequencies_hz, 0),
+        ),
+        table("Damping ratios", "%", modal("xi", 100.0, damping_ratios, 1)),
+        table("Mass matrix M", "kg", matrix("M", mass, 0)),
+        table("Stiffness matrix K", "N/m", matrix("K", stiffness, 1)),
+        table("Damping matrix, MKR", "N s/m", matrix("R", damping_mkr, 2)),
+        table(
+            "Damping matrix, Rayleigh",
+            "N s/m",
+            matrix("R", damping_rayleigh, 3),
+        ),
+    ]
 }
 
 /// Tables of a maximum-likelihood refinement with its standard errors.
@@ -592,8 +602,8 @@ pub fn frf_report(
                 frf.outputs.len(),
                 frf.references.len(),
                 frf.frequency_hz.len(),
-                reports_sig(frf.frequency_hz[0]),
-                reports_sig(frf.frequency_hz[frf.frequency_hz.len() - 1]),
+                sig(frf.frequency_hz[0], 6),
+                sig(frf.frequency_hz[frf.frequency_hz.len() - 1], 6),
                 frf.averages.map_or("unknown".into(), |n| n.to_string()),
                 if frf.coherence.is_some() {
                     "given (lines weighted by it)"
@@ -636,7 +646,7 @@ pub fn frf_report(
             "Exponential window",
             format!(
                 "tau = {} s: its damping (1 / (tau omega) of critical) is removed from the modes, M, K and damping",
-                reports_sig(tau)
+                sig(tau, 4)
             ),
         ));
     }
@@ -647,7 +657,7 @@ pub fn frf_report(
                 "{} against {}: {} % relative difference over the band",
                 c.a,
                 c.b,
-                reports_sig(100.0 * c.relative_difference)
+                sig(100.0 * c.relative_difference, 3)
             ),
         ));
     }
@@ -721,62 +731,30 @@ pub fn frf_report(
     if frfs.iter().all(|f| f.identified.is_empty()) {
         warnings.push("the model's FRFs are not drawn: no reference is placed on a floor".into());
     }
-    let u = analysis.uncertainty.as_ref();
-    let sd = |pick: fn(&crate::frf_analysis::FrfSpread) -> &Vec<Vec<f64>>, i: usize, j: usize| {
-        u.map(|u| pick(u)[i][j])
-    };
-    let mut tables = vec![
-        table(
-            "Natural frequencies",
-            "Hz",
-            id.frequencies_hz
-                .iter()
-                .enumerate()
-                .map(|(j, &f)| rm::ValueRow {
-                    label: format!("f{}", j + 1),
-                    value: f,
-                    std: u.and_then(|u| u.frequencies_hz_std.get(j).copied()),
-                })
-                .collect(),
-        ),
-        table(
-            "Damping ratios",
-            "%",
-            id.damping_ratios
-                .iter()
-                .enumerate()
-                .map(|(j, &x)| rm::ValueRow {
-                    label: format!("xi{}", j + 1),
-                    value: 100.0 * x,
-                    std: u.and_then(|u| u.damping_ratios_std.get(j).map(|s| 100.0 * s)),
-                })
-                .collect(),
-        ),
-        table(
-            "Mass matrix M",
-            "kg",
-            matrix_rows("M", &id.mass, |i, j| sd(|u| &u.mass_std, i, j)),
-        ),
-        table(
-            "Stiffness matrix K",
-            "N/m",
-            matrix_rows("K", &id.stiffness, |i, j| sd(|u| &u.stiffness_std, i, j)),
-        ),
-        table(
-            "Damping matrix, MKR",
-            "N s/m",
-            matrix_rows("R", &id.damping_mkr, |i, j| {
-                sd(|u| &u.damping_mkr_std, i, j)
-            }),
-        ),
-        table(
-            "Damping matrix, Rayleigh",
-            "N s/m",
-            matrix_rows("R", &id.damping_rayleigh, |i, j| {
-                sd(|u| &u.damping_rayleigh_std, i, j)
-            }),
-        ),
-    ];
+    let mut tables = identified_tables(
+        &id.frequencies_hz,
+        &id.damping_ratios,
+        [
+            &id.mass,
+            &id.stiffness,
+            &id.damping_mkr,
+            &id.damping_rayleigh,
+        ],
+        analysis.uncertainty.as_ref().map(|u| {
+            (
+                [
+                    u.frequencies_hz_std.as_slice(),
+                    u.damping_ratios_std.as_slice(),
+                ],
+                [
+                    u.mass_std.as_slice(),
+                    u.stiffness_std.as_slice(),
+                    u.damping_mkr_std.as_slice(),
+                    u.damping_rayleigh_std.as_slice(),
+                ],
+            )
+        }),
+    );
     if let Some(r) = &analysis.refinement {
         tables.extend(refined_tables(
             &r.mass,

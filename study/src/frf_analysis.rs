@@ -446,10 +446,10 @@ pub fn bootstrap(
     // The model the resamples are drawn around: LSFD's synthesis (in the
     // measured, windowed and polarity-corrected sense of the data).
     let sign = if id.polarity_flipped { -1.0 } else { 1.0 };
-    let model: Vec<nalgebra::DMatrix<ident::linalg::C64>> = frf
-        .frequency_hz
+    // model[b] at line lines[b]: only the band is resampled.
+    let model: Vec<nalgebra::DMatrix<ident::linalg::C64>> = lines
         .iter()
-        .map(|&f| id.lsfd.synthesize(f) * ident::linalg::C64::new(sign, 0.0))
+        .map(|&k| id.lsfd.synthesize(frf.frequency_hz[k]) * ident::linalg::C64::new(sign, 0.0))
         .collect();
     let from_coherence = match (&frf.coherence, frf.averages) {
         (Some(g), Some(n)) if n >= 2 => Some((g, n)),
@@ -477,7 +477,8 @@ pub fn bootstrap(
                 for l in 0..r {
                     let ms = lines
                         .iter()
-                        .map(|&k| (frf.values[k][(i, l)] - model[k][(i, l)]).norm_sqr())
+                        .zip(&model)
+                        .map(|(&k, h)| (frf.values[k][(i, l)] - h[(i, l)]).norm_sqr())
                         .sum::<f64>()
                         / lines.len() as f64;
                     if !(ms.is_finite() && ms > 0.0) {
@@ -501,7 +502,7 @@ pub fn bootstrap(
     let mut failed = 0;
     for _ in 0..BOOTSTRAP_RESAMPLES {
         let mut resample = frf.clone();
-        for &k in &lines {
+        for (&k, h) in lines.iter().zip(&model) {
             for i in 0..m {
                 for l in 0..r {
                     // Half the variance in each of the real and imaginary parts.
@@ -509,7 +510,7 @@ pub fn bootstrap(
                     let re: f64 = rng.sample(StandardNormal);
                     let im: f64 = rng.sample(StandardNormal);
                     resample.values[k][(i, l)] =
-                        model[k][(i, l)] + ident::linalg::C64::new(sd * re, sd * im);
+                        h[(i, l)] + ident::linalg::C64::new(sd * re, sd * im);
                 }
             }
         }
