@@ -66,6 +66,73 @@ pub(crate) fn time_column_scale(bare: &str, unit: Option<&str>) -> Option<Result
 
 pub(crate) type Cells<'a> = Vec<std::borrow::Cow<'a, str>>;
 
+/// The cells of data row `n` (1-based line): split at `delim` (quotes
+/// honoured), a trailing empty cell dropped when every row ends with the
+/// delimiter, refused unless `ncols` wide.
+pub(crate) fn row_cells<'a>(
+    text: &'a str,
+    delim: char,
+    n: usize,
+    ncols: usize,
+    trailing_delimiter: bool,
+    err: &dyn Fn(Location, Problem) -> RecordError,
+) -> Result<Cells<'a>, RecordError> {
+    let mut cells = split_line(text, delim).map_err(|col| {
+        err(
+            Location {
+                line: Some(n),
+                column: Some(col),
+                ..Location::default()
+            },
+            Problem::UnterminatedQuote,
+        )
+    })?;
+    if trailing_delimiter && cells.len() == ncols + 1 && cells[ncols].is_empty() {
+        cells.pop();
+    }
+    if cells.len() != ncols {
+        return Err(err(
+            Location::line(n),
+            Problem::RaggedRow {
+                expected: ncols,
+                found: cells.len(),
+            },
+        ));
+    }
+    Ok(cells)
+}
+
+/// The number in `cell` (at `at`), a decimal comma read as a point when
+/// `decimal_comma` and the cell has no point and one comma; with the text
+/// as read (for its printed precision).
+pub(crate) fn cell_value<'a>(
+    cell: &'a str,
+    decimal_comma: bool,
+    at: impl FnOnce() -> Location,
+    err: &dyn Fn(Location, Problem) -> RecordError,
+) -> Result<(f64, std::borrow::Cow<'a, str>), RecordError> {
+    let s: std::borrow::Cow<'a, str> =
+        if decimal_comma && !cell.contains('.') && cell.matches(',').count() == 1 {
+            cell.replace(',', ".").into()
+        } else {
+            cell.into()
+        };
+    match numfmt::parse_decimal(&s) {
+        Ok(v) => Ok((v, s)),
+        Err(e) => {
+            let text = cell.to_string();
+            Err(err(
+                at(),
+                match e {
+                    NumError::Empty => Problem::EmptyCell,
+                    NumError::NotANumber => Problem::NonNumeric { text },
+                    NumError::NonFinite => Problem::NonFinite { text },
+                },
+            ))
+        }
+    }
+}
+
 /// Splits a line at `delim`, honouring double quotes ("" inside quotes is a
 /// quote). Cells are trimmed. Returns the 1-based column of an unclosed
 /// quote as error.
@@ -235,49 +302,16 @@ pub fn parse_csv(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<Record
         }
         first_data_line.get_or_insert(n);
         let text = String::from_utf8_lossy(raw);
-        let mut cells = split_line(&text, delim).map_err(|col| {
-            err(
-                Location {
-                    line: Some(n),
-                    column: Some(col),
-                    ..Location::default()
-                },
-                Problem::UnterminatedQuote,
-            )
-        })?;
-        if trailing_delimiter && cells.len() == ncols + 1 && cells[ncols].is_empty() {
-            cells.pop();
-        }
-        if cells.len() != ncols {
-            return Err(err(
-                Location::line(n),
-                Problem::RaggedRow {
-                    expected: ncols,
-                    found: cells.len(),
-                },
-            ));
-        }
+        let cells = row_cells(&text, delim, n, ncols, trailing_delimiter, &err)?;
         for (col, cell) in cells.iter().enumerate() {
-            let comma_buf;
-            let mut s: &str = cell;
-            if decimal_comma && !s.contains('.') && s.matches(',').count() == 1 {
-                comma_buf = s.replace(',', ".");
-                s = &comma_buf;
-            }
-            let value = numfmt::parse_decimal(s).map_err(|e| {
-                let at = Location::cell(n, col + 1, &names[col]);
-                let text = cell.to_string();
-                err(
-                    at,
-                    match e {
-                        NumError::Empty => Problem::EmptyCell,
-                        NumError::NotANumber => Problem::NonNumeric { text },
-                        NumError::NonFinite => Problem::NonFinite { text },
-                    },
-                )
-            })?;
+            let (value, s) = cell_value(
+                cell,
+                decimal_comma,
+                || Location::cell(n, col + 1, &names[col]),
+                &err,
+            )?;
             if col < first_channel_col {
-                time_model.observe(numfmt::printed_precision(s));
+                time_model.observe(numfmt::printed_precision(&s));
                 time.push(value);
             } else {
                 channels[col - first_channel_col].values.push(value);

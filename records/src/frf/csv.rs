@@ -7,7 +7,7 @@ use ident::FrfQuantity;
 use ident::linalg::C64;
 
 use super::{FrfFile, FrfFormat, FrfPair, FrfPoint, FrfReadOptions};
-use crate::csv::{detect_delimiter, split_line, split_unit};
+use crate::csv::{cell_value, detect_delimiter, row_cells, split_line, split_unit};
 use crate::error::{Location, Problem, RecordError};
 use crate::numfmt::{self, NumError};
 use crate::spec::{direction_label, parse_direction};
@@ -574,46 +574,14 @@ fn parse_headed(
     let mut columns: Vec<Vec<f64>> = vec![Vec::with_capacity(rows.len()); ncols];
     for &(n, raw) in &rows {
         let text = String::from_utf8_lossy(raw);
-        let mut cells = split_line(&text, delim).map_err(|col| {
-            err(
-                Location {
-                    line: Some(n),
-                    column: Some(col),
-                    ..Location::default()
-                },
-                Problem::UnterminatedQuote,
-            )
-        })?;
-        if trailing_delimiter && cells.len() == ncols + 1 && cells[ncols].is_empty() {
-            cells.pop();
-        }
-        if cells.len() != ncols {
-            return Err(err(
-                Location::line(n),
-                Problem::RaggedRow {
-                    expected: ncols,
-                    found: cells.len(),
-                },
-            ));
-        }
+        let cells = row_cells(&text, delim, n, ncols, trailing_delimiter, &err)?;
         for (col, cell) in cells.iter().enumerate() {
-            let comma_buf;
-            let mut s: &str = cell;
-            if decimal_comma && !s.contains('.') && s.matches(',').count() == 1 {
-                comma_buf = s.replace(',', ".");
-                s = &comma_buf;
-            }
-            let v = numfmt::parse_decimal(s).map_err(|e| {
-                let text = cell.to_string();
-                err(
-                    Location::cell(n, col + 1, &names[col]),
-                    match e {
-                        NumError::Empty => Problem::EmptyCell,
-                        NumError::NotANumber => Problem::NonNumeric { text },
-                        NumError::NonFinite => Problem::NonFinite { text },
-                    },
-                )
-            })?;
+            let (v, _) = cell_value(
+                cell,
+                decimal_comma,
+                || Location::cell(n, col + 1, &names[col]),
+                &err,
+            )?;
             columns[col].push(v);
         }
     }
