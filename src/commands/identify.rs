@@ -9,7 +9,8 @@ use records::{ChannelSpec, ReadOptions, RecordFile};
 use study::analysis::{AnalysisSettings, Screening, analyze_located, identifier};
 
 use crate::cli::{IdentifyArgs, SelectArgs};
-use crate::output::{Collocated, IdentifyReport, Source};
+use crate::output::Human as _;
+use study::document::{Collocated, IdentifyReport, Source};
 
 /// Parses a comma-separated list of channel selectors given to `flag`.
 fn parse_specs(flag: &str, list: &str) -> Result<Vec<ChannelSpec>> {
@@ -199,11 +200,10 @@ pub fn run(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
         let rows_to =
             |r: &Vec<Vec<f64>>| nalgebra::DMatrix::from_fn(r.len(), r.len(), |i, j| r[i][j]);
         let refined = report.refined.as_ref().map(|r| rows_to(&r.mass));
-        report.without_sensors = Some(crate::output::WithoutSensors::new(
-            s,
-            &rows_to(&report.mass),
-            refined.as_ref(),
-        )?);
+        report.without_sensors = Some(
+            study::document::WithoutSensors::new(s, &rows_to(&report.mass), refined.as_ref())
+                .map_err(|e| anyhow::anyhow!("--sensor-mass: {e}"))?,
+        );
     }
     let text = if args.json {
         let mut text = serde_json::to_string_pretty(&report)?;
@@ -408,13 +408,13 @@ fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
         refine: args.refine.then_some(args.parametrization),
     };
     let analysis = analyze_frfs(frf, &reference_outputs, &settings)?;
-    let point = |p: &records::frf::FrfPoint| crate::output::PointReport {
+    let point = |p: &records::frf::FrfPoint| study::document::PointReport {
         name: p.name.clone(),
         node: p.node,
         direction: p.direction,
     };
     let names: Vec<String> = args.files.iter().map(|f| f.display().to_string()).collect();
-    let source = crate::output::FrfSource {
+    let source = study::document::FrfSource {
         files: names.clone(),
         quantity: frf.quantity.to_string(),
         lines: frf.frequency_hz.len(),
@@ -431,13 +431,16 @@ fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
             input: collocated.1,
         },
     };
-    let mut report = crate::output::FrfIdentifyReport::new(&analysis, source);
+    let mut report = study::document::FrfIdentifyReport::new(&analysis, source);
     if let Some(s) = &args.sensor_mass {
-        report.without_sensors = Some(crate::output::WithoutSensors::new(
-            s,
-            &analysis.identification.mass,
-            analysis.refinement.as_ref().map(|r| &r.mass),
-        )?);
+        report.without_sensors = Some(
+            study::document::WithoutSensors::new(
+                s,
+                &analysis.identification.mass,
+                analysis.refinement.as_ref().map(|r| &r.mass),
+            )
+            .map_err(|e| anyhow::anyhow!("--sensor-mass: {e}"))?,
+        );
     }
     if let Some(dir) = &args.export {
         let id = &analysis.identification;

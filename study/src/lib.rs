@@ -22,6 +22,8 @@
 //!   of the FRFs (coherence, reciprocity).
 //! - [`frfs`]: FRFs and coherence of a screened campaign of records
 //!   (`frameid frf`).
+//! - [`document`]: the JSON documents of `frameid identify` (time and
+//!   FRF routes), the typed outcome the binary renders.
 //! - [`decimate`]: decimation of records sampled far above the modes'
 //!   band, before identification.
 //! - [`report`]: sweep directories into the `reports` crate's data model.
@@ -55,6 +57,7 @@ pub mod analysis;
 pub mod campaign_dir;
 pub mod campaign_report;
 pub mod decimate;
+pub mod document;
 mod error;
 pub mod experiment;
 pub mod export;
