@@ -20,6 +20,7 @@
 //! The results serialize to JSON (`hit_quality` in `frameid identify --json`)
 //! and carry the numbers an HTML report needs.
 
+use std::borrow::Cow;
 use std::fmt;
 
 use ident::{Campaign, Record};
@@ -161,6 +162,20 @@ pub struct QualitySettings {
     /// (-20 dB, the limit of [`QualitySettings::min_snr_db`]: a structure at
     /// rest shows only noise there, 0.01-0.02 at 1 % noise).
     pub max_initial_motion: f64,
+    /// Hammer records: a channel's baseline (its mean) that moves between
+    /// the pre-trigger and the record's tail (the last
+    /// [`QualitySettings::tail_fraction`]) by more than this many standard
+    /// errors of the two means is a drift: 8. The standard errors come from
+    /// the scatter in the two windows (white-noise formula); 8 keeps
+    /// coloured noise (its correlation raises the true error by a few
+    /// times) and the response's remaining oscillation in the tail from
+    /// being taken for a drift.
+    pub drift_z: f64,
+    /// ... and by more than this fraction of the channel's peak: 0.005. A
+    /// move below it leaves M, K and the damping within the effect of the
+    /// noise; 0.002 m/s^3 over 32 s (3 % of the peak of paper case 1's
+    /// second floor) moves the damping by 49 % when left in.
+    pub drift_min_fraction: f64,
 }
 
 impl Default for QualitySettings {
@@ -185,6 +200,8 @@ impl Default for QualitySettings {
             min_snr_db: 20.0,
             min_band_snr_db: 0.0,
             max_initial_motion: 0.1,
+            drift_z: 8.0,
+            drift_min_fraction: 0.005,
         }
     }
 }
@@ -213,6 +230,8 @@ impl QualitySettings {
         positive("max_tail_ratio", self.max_tail_ratio)?;
         positive("tail_noise_factor", self.tail_noise_factor)?;
         positive("max_initial_motion", self.max_initial_motion)?;
+        positive("drift_z", self.drift_z)?;
+        positive("drift_min_fraction", self.drift_min_fraction)?;
         if !self.min_band_snr_db.is_finite() {
             return Err(format!(
                 "min_band_snr_db must be a finite number, got {}",
@@ -323,6 +342,10 @@ pub enum Check {
     /// starts (the structure is not at rest). A note: the identification
     /// allows for an unknown initial state then.
     NotAtRest,
+    /// Hammer records: a channel's baseline drifts linearly over the
+    /// record; the line through the pre-trigger and the tail is removed
+    /// before identification (see [`remove_drifts`]).
+    Drift,
 }
 
 impl Check {
@@ -336,7 +359,10 @@ impl Check {
     /// `--drop-bad-hits` drops it). A short pre-trigger only means the
     /// noise could not be measured; it is reported but fails nothing.
     pub fn fails_hit(self) -> bool {
-        !matches!(self, Check::ShortPretrigger | Check::NotAtRest)
+        !matches!(
+            self,
+            Check::ShortPretrigger | Check::NotAtRest | Check::Drift
+        )
     }
 
     /// Short name, as in messages.
@@ -351,6 +377,7 @@ impl Check {
             Check::LowSnr => "low SNR",
             Check::LowCoherence => "low coherence",
             Check::NotAtRest => "not at rest",
+            Check::Drift => "drift removed",
         }
     }
 }
@@ -414,6 +441,31 @@ pub struct ChannelQuality {
     pub range_samples: usize,
     /// Outputs: RMS of the record's tail over the peak.
     pub tail_ratio: Option<f64>,
+    /// Hammer records with a pre-trigger: the baseline line through the
+    /// pre-trigger mean and the tail mean (null otherwise). In JSON only
+    /// when it is a drift (flagged and removed).
+    #[serde(skip_serializing_if = "not_a_drift")]
+    pub drift: Option<Drift>,
+}
+
+/// A channel's baseline as a line over the record: the mean of the
+/// pre-trigger (after the guard) at its centre and the mean of the tail (the
+/// last [`QualitySettings::tail_fraction`]) at its centre. A hammer
+/// response has decayed in the tail, so the two means differ only by noise
+/// unless the baseline moves (a drifting charge amplifier or sensor).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Drift {
+    /// The line's value at the record's first sample, channel unit.
+    pub start: f64,
+    /// Its slope, channel unit per second.
+    pub per_s: f64,
+    /// The move between the two means over its standard error.
+    pub z: f64,
+    /// The move over the channel's peak.
+    pub fraction_of_peak: f64,
+    /// Whether it is a drift by [`QualitySettings::drift_z`] and
+    /// [`QualitySettings::drift_min_fraction`] (flagged and removed).
+    pub significant: bool,
 }
 
 /// Metrics of the force pulse (the main input of the hit).
@@ -646,9 +698,24 @@ pub fn assess_hit(
     let all = with_roles(&input_rows, inputs, &output_rows, outputs);
     let mut low_snr = Vec::new();
     for (x, name, role) in all {
-        let cq = channel_quality(x, name, role, noise_end, noise_ok && is_hit, settings);
+        let cq = channel_quality(x, name, role, noise_end, noise_ok && is_hit, dt_s, settings);
         if let Some(f) = clipping_flag(&cq, x, settings) {
             flags.push(f);
+        }
+        if let Some(d) = cq.drift.filter(|d| d.significant) {
+            flags.push(Flag {
+                check: Check::Drift,
+                channel: Some(cq.name.clone()),
+                message: format!(
+                    "the baseline of '{}' moves by {} ({} % of its peak, {:.0} standard errors) between the pre-trigger and the last {:.0} % of the record: a linear drift of {} per second; the line through the two is removed before identification",
+                    cq.name,
+                    short(d.per_s * (n - 1) as f64 * dt_s),
+                    short(100.0 * d.fraction_of_peak),
+                    d.z.min(1e6),
+                    100.0 * settings.tail_fraction,
+                    short(d.per_s)
+                ),
+            });
         }
         if is_hit
             && let Some(snr) = cq.snr_db
@@ -763,7 +830,7 @@ fn assess_continuous(
     let mut channels = Vec::with_capacity(inputs.len() + outputs.len());
     let all = with_roles(input_rows, inputs, output_rows, outputs);
     for (x, name, role) in all {
-        let mut cq = channel_quality(x, name, role, 0, false, settings);
+        let mut cq = channel_quality(x, name, role, 0, false, dt_s, settings);
         cq.tail_ratio = None;
         if let Some(f) = clipping_flag(&cq, x, settings) {
             flags.push(f);
@@ -1109,6 +1176,7 @@ fn order_of(c: Check) -> usize {
         Check::LowSnr,
         Check::LowCoherence,
         Check::NotAtRest,
+        Check::Drift,
     ]
     .iter()
     .position(|&x| x == c)
@@ -1202,6 +1270,7 @@ fn channel_quality(
     role: Role,
     noise_end: usize,
     noise_ok: bool,
+    dt_s: f64,
     settings: &QualitySettings,
 ) -> ChannelQuality {
     let n = x.len();
@@ -1226,10 +1295,15 @@ fn channel_quality(
         let at = r * (1.0 - 1e-9);
         x.iter().filter(|v| v.abs() >= at).count()
     });
-    let tail_ratio = (role == Role::Output && peak > 0.0).then(|| {
-        let len = ((settings.tail_fraction * n as f64).round() as usize).clamp(1, n);
-        rms_about(&x[n - len..], base) / peak
-    });
+    let tail_len = ((settings.tail_fraction * n as f64).round() as usize).clamp(1, n);
+    let tail_ratio =
+        (role == Role::Output && peak > 0.0).then(|| rms_about(&x[n - tail_len..], base) / peak);
+    let drift = (noise_ok
+        && peak > 0.0
+        && noise.len() >= 2
+        && tail_len >= 2
+        && n - tail_len >= noise.len())
+    .then(|| baseline_line(noise, &x[n - tail_len..], n, dt_s, peak, settings));
     ChannelQuality {
         name: name.to_string(),
         role,
@@ -1241,7 +1315,80 @@ fn channel_quality(
         clip_samples,
         range_samples,
         tail_ratio,
+        drift,
     }
+}
+
+fn not_a_drift(d: &Option<Drift>) -> bool {
+    !d.is_some_and(|d| d.significant)
+}
+
+/// The [`Drift`] line of a channel of `n` samples from its pre-trigger
+/// `head` (starting at sample 0) and its `tail` (ending at sample n - 1).
+fn baseline_line(
+    head: &[f64],
+    tail: &[f64],
+    n: usize,
+    dt_s: f64,
+    peak: f64,
+    settings: &QualitySettings,
+) -> Drift {
+    let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len() as f64;
+    let (m0, m1) = (mean(head), mean(tail));
+    let var =
+        |x: &[f64], m: f64| x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (x.len() - 1) as f64;
+    let se = (var(head, m0) / head.len() as f64 + var(tail, m1) / tail.len() as f64).sqrt();
+    let t0 = 0.5 * (head.len() - 1) as f64 * dt_s;
+    let t1 = 0.5 * ((n - tail.len()) + (n - 1)) as f64 * dt_s;
+    let per_s = (m1 - m0) / (t1 - t0);
+    let z = if se > 0.0 {
+        (m1 - m0).abs() / se
+    } else if m1 == m0 {
+        0.0
+    } else {
+        f64::INFINITY
+    };
+    let fraction_of_peak = (m1 - m0).abs() / peak;
+    Drift {
+        start: m0 - per_s * t0,
+        per_s,
+        z,
+        fraction_of_peak,
+        significant: z > settings.drift_z && fraction_of_peak > settings.drift_min_fraction,
+    }
+}
+
+/// `campaign` with the significant drifts of `hits` (its quality, record by
+/// record) removed: the baseline line of each such channel subtracted from
+/// every sample. Records and channels without one are left bit for bit;
+/// without any, `campaign` itself is returned (no copy).
+pub fn remove_drifts<'a>(campaign: &'a Campaign, hits: &[HitQuality]) -> Cow<'a, Campaign> {
+    let drifting = |q: &HitQuality| {
+        q.channels
+            .iter()
+            .any(|c| c.drift.is_some_and(|d| d.significant))
+    };
+    if !hits.iter().any(drifting) {
+        return Cow::Borrowed(campaign);
+    }
+    let mut out = campaign.clone();
+    for (record, q) in out.records.iter_mut().zip(hits) {
+        let inputs = record.inputs.nrows();
+        for (c, cq) in q.channels.iter().enumerate() {
+            let Some(d) = cq.drift.filter(|d| d.significant) else {
+                continue;
+            };
+            let mut row = if c < inputs {
+                record.inputs.row_mut(c)
+            } else {
+                record.outputs.row_mut(c - inputs)
+            };
+            for (k, v) in row.iter_mut().enumerate() {
+                *v -= d.start + d.per_s * k as f64 * campaign.dt_s;
+            }
+        }
+    }
+    Cow::Owned(out)
 }
 
 /// Longest run and count of samples equal to the channel's largest and
@@ -1509,6 +1656,7 @@ fn half_sine_fraction_inverse(ratio: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::DMatrix;
 
     #[test]
     fn half_sine_spectrum_and_its_inverse() {
@@ -1597,6 +1745,94 @@ mod tests {
         // Force on from the first sample: no ratio.
         let m = initial_motion(&noise, &[sine], 20, 8);
         assert_eq!((m.pre_excitation_samples, m.ratio), (0, None));
+    }
+
+    /// A hammer hit at sample 200 of 4096 (64 Hz): a half-sine force and a
+    /// decaying 5 Hz response, with 1 % white noise, plus `drift` m/s^3 on
+    /// the output from the first sample.
+    fn drifting_hit(drift_per_s: f64) -> (Record, f64) {
+        let (n, dt_s, hit) = (4096, 1.0 / 64.0, 200);
+        let noise = gaussian(7, 2 * n);
+        let force: Vec<f64> = (0..n)
+            .map(|i| {
+                let pulse = if (hit..hit + 3).contains(&i) {
+                    100.0
+                        * (std::f64::consts::PI * (i - hit) as f64 / 3.0)
+                            .sin()
+                            .max(0.5)
+                } else {
+                    0.0
+                };
+                pulse + 0.5 * noise[i]
+            })
+            .collect();
+        let acc: Vec<f64> = (0..n)
+            .map(|i| {
+                let t = i as f64 * dt_s;
+                let resp = if i >= hit {
+                    let tau = t - hit as f64 * dt_s;
+                    (-0.15 * 2.0 * std::f64::consts::PI * 5.0 * tau).exp()
+                        * (2.0 * std::f64::consts::PI * 5.0 * tau).sin()
+                } else {
+                    0.0
+                };
+                resp + 0.01 * noise[n + i] + 0.02 + drift_per_s * t
+            })
+            .collect();
+        let record = Record::new(
+            DMatrix::from_row_slice(1, n, &force),
+            DMatrix::from_row_slice(1, n, &acc),
+        );
+        (record, dt_s)
+    }
+
+    /// A drift of 0.3 % of the peak per second (18 % of it over the
+    /// 64-s record) is flagged and its line removed; none is flagged
+    /// without it, and the offset alone is no drift.
+    #[test]
+    fn drift_is_flagged_and_removed() {
+        let names = |s: &str| vec![s.to_string()];
+        let settings = QualitySettings::default();
+        let (clean, dt_s) = drifting_hit(0.0);
+        let q = assess_hit(&clean, dt_s, &names("force"), &names("acc"), &settings);
+        assert!(q.flags.iter().all(|f| f.check != Check::Drift), "{q:?}");
+        let d = q.channels[1].drift.unwrap();
+        assert!(!d.significant && d.z < settings.drift_z, "{d:?}");
+        // The offset of 0.02 is the line's start (within the noise of the
+        // 180-sample pre-trigger mean: 0.01 / sqrt(180) = 7e-4, 5 sigma).
+        assert!((d.start - 0.02).abs() < 3.5e-3, "{d:?}");
+
+        let (drifting, _) = drifting_hit(0.003);
+        let q = assess_hit(&drifting, dt_s, &names("force"), &names("acc"), &settings);
+        let flag = q.flags.iter().find(|f| f.check == Check::Drift).unwrap();
+        assert_eq!(flag.channel.as_deref(), Some("acc"));
+        assert!(!Check::Drift.fails_hit());
+        let d = q.channels[1].drift.unwrap();
+        // The slope from two means of noise 0.01 over 180 and 410 samples,
+        // 60 s apart: standard error 9e-6 per s; 1e-4 is 11 of them.
+        assert!((d.per_s - 0.003).abs() < 1e-4, "{d:?}");
+        assert!(q.channels[0].drift.is_none_or(|d| !d.significant));
+
+        let campaign = Campaign::new(vec![drifting], dt_s);
+        let fixed = remove_drifts(&campaign, std::slice::from_ref(&q));
+        let again = assess_hit(
+            &fixed.records[0],
+            dt_s,
+            &names("force"),
+            &names("acc"),
+            &settings,
+        );
+        let d = again.channels[1].drift.unwrap();
+        assert!(
+            !d.significant && d.per_s.abs() < 1e-12 && d.start.abs() < 1e-12,
+            "{d:?}"
+        );
+        // The force was left bit for bit.
+        assert_eq!(fixed.records[0].inputs, campaign.records[0].inputs);
+        // Nothing to remove: the campaign itself, not a copy.
+        let clean = Campaign::new(vec![clean], dt_s);
+        let q = assess_campaign(&clean, &settings);
+        assert!(matches!(remove_drifts(&clean, &q), Cow::Borrowed(_)));
     }
 
     #[test]

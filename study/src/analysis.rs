@@ -411,6 +411,10 @@ pub fn analyze_located(
         mut consistency,
         mut keep,
     } = screen_records(campaign, locate, settings)?;
+    // Drifting baselines found by the quality checks are removed (and said
+    // in the warnings, from the flags) before anything is identified.
+    let detrended = records::quality::remove_drifts(campaign, &hit_quality);
+    let campaign: &Campaign = &detrended;
     let flag_lines = |flags: &[ConsistencyFlag]| -> Vec<String> {
         flags.iter().map(|f| format!("  {f}")).collect()
     };

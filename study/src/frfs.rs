@@ -136,7 +136,7 @@ pub fn estimate_frfs(
                 .filter(|i| !a.dropped.contains(i))
                 .collect();
             (
-                campaign.subset(&keep),
+                records::quality::remove_drifts(campaign, &a.hit_quality).subset(&keep),
                 a.dropped,
                 a.hit_quality,
                 a.warnings,
@@ -174,7 +174,7 @@ pub fn estimate_frfs(
                     e.to_string().lines().next().unwrap_or_default()
                 ));
             (
-                campaign.subset(&keep),
+                records::quality::remove_drifts(campaign, &hit_quality).subset(&keep),
                 dropped,
                 hit_quality,
                 warnings,
