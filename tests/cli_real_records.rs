@@ -402,20 +402,26 @@ fn snr_per_band_of_continuous_records() {
     assert!(text.contains("SNR per octave band"), "{text}");
 }
 
-/// A directory of measured records, `../shared/realdata/<name>` beside the
-/// repository (real data sets with their LICENSE and PROVENANCE.md, kept
-/// out of the repository like the Cristallo FRFs), or `$FRAMEID_REALDATA/<name>`.
+/// A directory of measured records with their LICENSE and PROVENANCE.md:
+/// `$FRAMEID_REALDATA/<name>` if set, else `tests/data/<name>`, else
+/// `../shared/realdata/<name>` beside the repository (where the Cristallo
+/// FRFs are), the first that holds PROVENANCE.md.
 fn realdata(name: &str) -> PathBuf {
-    let root = std::env::var_os("FRAMEID_REALDATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| repo("../shared/realdata"));
-    let dir = root.join(name);
-    assert!(
-        dir.join("PROVENANCE.md").is_file(),
-        "the measured records '{name}' are expected in {} (see the README, real data)",
-        dir.display()
-    );
-    dir
+    let mut roots = Vec::new();
+    if let Some(root) = std::env::var_os("FRAMEID_REALDATA") {
+        roots.push(PathBuf::from(root));
+    }
+    roots.push(repo("tests/data"));
+    roots.push(repo("../shared/realdata"));
+    roots
+        .iter()
+        .map(|root| root.join(name))
+        .find(|dir| dir.join("PROVENANCE.md").is_file())
+        .unwrap_or_else(|| {
+            panic!(
+                "the measured records '{name}' are expected in one of {roots:?} (see the README, real data)"
+            )
+        })
 }
 
 /// The two LADISK hammer hits (force, m_1, m_2 at 1024 Hz, 8 s each) with
