@@ -205,6 +205,24 @@ fn records_sampled_far_above_the_band_are_decimated() {
     let (code, _, err) = run(&["identify", "--decimate", "0", &fast[0]]);
     assert_eq!(code, 2);
     assert!(err.contains("--decimate"), "{err}");
+    // A band given decides instead of the peaks: its top, 20 Hz, below 0.4
+    // of the new Nyquist frequency gives 512 / (5 x 20) = 5.1, so 5; with
+    // --modes the highest frequency times 1.1 (10.1 Hz): 512 / (5 x 10.12)
+    // = 10.1, so 10. Both keep M and K within the 0.5 % above.
+    let band = identify_no_uncertainty(&fast, &["--band", "1:20"]);
+    assert_eq!(band["decimation"]["factor"], 5, "{:#}", band["decimation"]);
+    assert!(
+        band["decimation"]["reason"]
+            .as_str()
+            .unwrap()
+            .contains("the top of --band")
+    );
+    let near = identify_no_uncertainty(&fast, &["--modes", "2.7,9.2"]);
+    assert_eq!(near["decimation"]["factor"], 10, "{:#}", near["decimation"]);
+    for v in [&band, &near] {
+        let (m, k) = errors(v);
+        assert!(m < 0.005 && k < 0.005, "M {m} K {k}");
+    }
 }
 
 #[test]
@@ -406,28 +424,31 @@ fn snr_per_band_of_continuous_records() {
 /// `$FRAMEID_REALDATA/<name>` if set, else `tests/data/<name>`, else
 /// `../shared/realdata/<name>` beside the repository (where the Cristallo
 /// FRFs are), the first that holds PROVENANCE.md.
-fn realdata(name: &str) -> PathBuf {
+fn realdata(name: &str) -> Option<PathBuf> {
     let mut roots = Vec::new();
     if let Some(root) = std::env::var_os("FRAMEID_REALDATA") {
         roots.push(PathBuf::from(root));
     }
     roots.push(repo("tests/data"));
     roots.push(repo("../shared/realdata"));
-    roots
+    let found = roots
         .iter()
         .map(|root| root.join(name))
-        .find(|dir| dir.join("PROVENANCE.md").is_file())
-        .unwrap_or_else(|| {
-            panic!(
-                "the measured records '{name}' are expected in one of {roots:?} (see the README, real data)"
-            )
-        })
+        .find(|dir| dir.join("PROVENANCE.md").is_file());
+    if found.is_none() {
+        // Not a pass: the data set is not here. It may not be committed
+        // (fetched data lives in the steering repository's shared/
+        // directory only); the README and the closing note say so.
+        eprintln!(
+            "NOT RUN: the measured records '{name}' are in none of {roots:?} (see the README, real data)"
+        );
+    }
+    found
 }
 
 /// The two LADISK hammer hits (force, m_1, m_2 at 1024 Hz, 8 s each) with
 /// `extra` options; the JSON result.
-fn ladisk(files: &[&str], extra: &[&str]) -> serde_json::Value {
-    let dir = realdata("ladisk-hammer");
+fn ladisk(dir: &Path, files: &[&str], extra: &[&str]) -> serde_json::Value {
     let paths: Vec<String> = files
         .iter()
         .map(|f| dir.join(f).to_string_lossy().into_owned())
@@ -456,13 +477,12 @@ fn used_modes(v: &serde_json::Value) -> Vec<(f64, f64)> {
 
 /// The two close modes of the LADISK records, identified with the
 /// options a user needs: the sampling rate (the file has no time column),
-/// the accelerometer at the hit (m_2), a decimation to 128 Hz and the band
-/// of the two modes.
-const LADISK: [&str; 7] = [
+/// the accelerometer at the hit (m_2) and the band of the two modes (which
+/// also sets the decimation: the records hold modes near 160 and 460 Hz
+/// as well).
+const LADISK: [&str; 5] = [
     "--collocated",
     "m_2:force",
-    "--decimate",
-    "8",
     "--band",
     "15:30",
     "--no-uncertainty",
@@ -470,7 +490,10 @@ const LADISK: [&str; 7] = [
 
 #[test]
 fn measured_hammer_hits_on_a_real_structure() {
-    let both = ladisk(&["hit1.csv", "hit2.csv"], &LADISK);
+    let Some(dir) = realdata("ladisk-hammer") else {
+        return;
+    };
+    let both = ladisk(&dir, &["hit1.csv", "hit2.csv"], &LADISK);
     let modes = used_modes(&both);
     eprintln!("LADISK hits 1+2: modes {modes:?}");
     assert_eq!(modes.len(), 2, "{both:#}");
@@ -486,7 +509,7 @@ fn measured_hammer_hits_on_a_real_structure() {
             "{f} Hz against the line {line} Hz"
         );
     }
-    // Lightly damped (measured 0.248 and 0.202 %): positive and below 1 %,
+    // Lightly damped (measured 0.272 and 0.205 %): positive and below 1 %,
     // the half-power bandwidth then narrower than the 1.4 Hz between the
     // modes by a factor of 30 or more.
     for (_, xi) in &modes {
@@ -496,10 +519,15 @@ fn measured_hammer_hits_on_a_real_structure() {
     // hits): found from the driving-point residues and flipped.
     assert_eq!(both["polarity_flipped"], true);
     assert_eq!(both["source"]["collocated"]["output"], 1);
-    assert_eq!(both["decimation"]["rate_hz"], 128.0);
+    // --band 15:30 sets the decimation: 30 Hz below 0.4 of the new Nyquist
+    // frequency allows a factor of 6 (170.7 Hz). Without --band the modes
+    // near 160 Hz keep the records at 1024 Hz, where OKID misses the 19.8 Hz
+    // mode.
+    assert_eq!(both["decimation"]["factor"], 6);
+    assert_eq!(both["decimation"]["chosen"], "auto");
     assert_eq!(both["mode_selection"], "band");
     // M and K symmetric positive definite and nearly diagonal, as for two
-    // masses joined by springs: measured M12 / sqrt(M11 M22) = 0.045,
+    // masses joined by springs: measured M12 / sqrt(M11 M22) = 0.079,
     // K12 / sqrt(K11 K22) = -0.020. Their scale is not checked: the force's
     // unit is not stated (PROVENANCE.md).
     for key in ["mass", "stiffness"] {
@@ -510,7 +538,7 @@ fn measured_hammer_hits_on_a_real_structure() {
         assert!(coupling.abs() < 0.2, "{key} coupling {coupling}");
     }
     // A two-mass model fits the two modes: measured ||W W^T|| / ||W L W^T||
-    // = 1.1e-3 (simulated campaigns at 1 % noise give 1e-4 to 1e-3; a
+    // = 8.9e-4 (simulated campaigns at 1 % noise give 1e-4 to 1e-3; a
     // torsional or local mode taken for a floor mode gives 0.1 or more).
     let consistency = both["consistency"].as_f64().unwrap();
     assert!(consistency < 1e-2, "consistency {consistency}");
@@ -523,7 +551,13 @@ fn measured_hammer_hits_on_a_real_structure() {
     // (hit 2: pre-trigger SNR 16-18 dB, hit 1 31-34 dB).
     let one: Vec<Vec<(f64, f64)>> = ["hit1.csv", "hit2.csv"]
         .iter()
-        .map(|h| used_modes(&ladisk(&[h], &LADISK)))
+        .map(|h| {
+            used_modes(&ladisk(
+                &dir,
+                &[h],
+                &[&LADISK[..], &["--decimate", "8"]].concat(),
+            ))
+        })
         .collect();
     eprintln!("LADISK hit 1: {:?}, hit 2: {:?}", one[0], one[1]);
     for ((f1, x1), (f2, x2)) in one[0].iter().zip(&one[1]) {
@@ -534,21 +568,13 @@ fn measured_hammer_hits_on_a_real_structure() {
     // The accelerometer m_1 is not at the hit: the residues of its two
     // modes at the force have opposite signs, which frameid refuses with
     // the reason.
-    let dir = realdata("ladisk-hammer");
     let hits: Vec<String> = ["hit1.csv", "hit2.csv"]
         .iter()
         .map(|h| dir.join(h).to_string_lossy().into_owned())
         .collect();
     let mut args = vec!["identify", "--fs", "1024"];
     args.extend(hits.iter().map(String::as_str));
-    args.extend_from_slice(&[
-        "--collocated",
-        "m_1:force",
-        "--decimate",
-        "8",
-        "--band",
-        "15:30",
-    ]);
+    args.extend_from_slice(&["--collocated", "m_1:force", "--band", "15:30"]);
     let (code, _, err) = run(&args);
     assert_eq!(code, 2, "{err}");
     assert!(

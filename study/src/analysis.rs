@@ -938,7 +938,12 @@ fn decimate_campaign(
     continuous: bool,
     settings: &AnalysisSettings,
 ) -> (Campaign, Decimation) {
-    let (factor, peaks_hz, reason) = crate::decimate::choose(kept, continuous, settings.decimation);
+    let (factor, peaks_hz, reason) = crate::decimate::choose(
+        kept,
+        continuous,
+        settings.decimation,
+        &settings.identifier.modes,
+    );
     let (out, filter, half) = crate::decimate::decimate(campaign, factor);
     let n = |c: &Campaign| c.records.first().map_or(0, ident::Record::len);
     let dropped_end_samples = if factor > 1 {

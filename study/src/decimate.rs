@@ -177,18 +177,74 @@ pub fn mode_peaks_hz(campaign: &Campaign, continuous: bool) -> Vec<f64> {
         .collect()
 }
 
+/// Margin above the highest frequency of `--modes` taken as the top of the
+/// band: 1.1 (the structural mode nearest a given frequency is what is
+/// chosen; a guess 10 % low still keeps the mode inside
+/// [`MAX_BAND_FRACTION`] of the new Nyquist frequency, which leaves room
+/// up to 0.4 of it).
+pub const MODES_MARGIN: f64 = 1.1;
+
 /// The factor for `setting` on `campaign` (records at `1 / dt_s`),
-/// with the peaks found and the reason.
+/// with the peaks found and the reason. When the user chose the model's
+/// modes (`--band` or `--modes` in `modes`), the band's top (or the highest
+/// frequency given, times [`MODES_MARGIN`]) decides instead of the highest
+/// peak of the records: modes above it are not wanted, and the decimation
+/// filter takes them out.
 pub fn choose(
     campaign: &Campaign,
     continuous: bool,
     setting: DecimationSetting,
+    modes: &ident::ModeSelection,
 ) -> (usize, Vec<f64>, String) {
     let fs = 1.0 / campaign.dt_s;
     match setting {
         DecimationSetting::Off => (1, Vec::new(), "--decimate off".into()),
         DecimationSetting::Factor(d) => (d, Vec::new(), format!("--decimate {d}")),
         DecimationSetting::Auto => {
+            let chosen_top = match modes {
+                ident::ModeSelection::Band { high_hz, .. } => {
+                    Some((*high_hz, format!("the top of --band, {} Hz,", records::numfmt::sig(*high_hz, 4))))
+                }
+                ident::ModeSelection::Near { frequencies_hz } => frequencies_hz
+                    .iter()
+                    .copied()
+                    .fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.max(f))))
+                    .map(|f| {
+                        (
+                            MODES_MARGIN * f,
+                            format!(
+                                "the highest of --modes, {} Hz, with a {MODES_MARGIN} margin ({} Hz),",
+                                records::numfmt::sig(f, 4),
+                                records::numfmt::sig(MODES_MARGIN * f, 4)
+                            ),
+                        )
+                    }),
+                ident::ModeSelection::Auto => None,
+            };
+            if let Some((top, what)) = chosen_top {
+                let peaks: Vec<f64> = mode_peaks_hz(campaign, continuous)
+                    .into_iter()
+                    .filter(|&f| f <= top)
+                    .collect();
+                let d = ((MAX_BAND_FRACTION * fs / (2.0 * top)).floor() as usize).max(1);
+                let sig = |x: f64| records::numfmt::sig(x, 4);
+                let reason = if d < 2 {
+                    format!(
+                        "{what} is at {} of the Nyquist frequency ({} Hz): no room to decimate",
+                        sig(top / (fs / 2.0)),
+                        sig(fs / 2.0)
+                    )
+                } else {
+                    format!(
+                        "{what} is at {} of the Nyquist frequency ({} Hz); the largest factor keeping it below {MAX_BAND_FRACTION} of the new one is {d} ({} Hz, Nyquist {} Hz); modes above it are filtered out",
+                        sig(top / (fs / 2.0)),
+                        sig(fs / 2.0),
+                        sig(fs / d as f64),
+                        sig(fs / (2.0 * d as f64))
+                    )
+                };
+                return (d, peaks, reason);
+            }
             let peaks = mode_peaks_hz(campaign, continuous);
             let Some(&top) = peaks.last() else {
                 return (
