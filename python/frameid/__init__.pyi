@@ -244,6 +244,14 @@ class Identification:
     @property
     def hit_quality(self) -> list[dict[str, Any]]: ...
     @property
+    def decimation(self) -> dict[str, Any] | None:
+        """The decimation before identification; None at the records' own rate."""
+
+    @property
+    def initial_state(self) -> dict[str, Any] | None:
+        """The initial state assumed and why; None when nothing was judged."""
+
+    @property
     def inconsistent_hits(self) -> list[dict[str, Any]]:
         """Hits inconsistent with the others: record, file, channel, kind, message."""
 
@@ -658,6 +666,8 @@ def identify(
     excitation: str = "auto",
     modes: Sequence[float] | None = None,
     band: tuple[float, float] | None = None,
+    decimate: str | int = "auto",
+    initial_state: str = "auto",
 ) -> Identification:
     """What `frameid identify` runs, with the same defaults."""
 

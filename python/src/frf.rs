@@ -28,7 +28,7 @@ use study::scenario::ParametrizationSetting;
 
 use crate::arrays::{self, c128_array, f64_array, matrix, vector};
 use crate::campaign::Campaign;
-use crate::identification::{Mode, RefinedMode, resolve_collocated};
+use crate::identification::{Mode, RefinedMode, json_text, resolve_collocated};
 use crate::{Reduced, error, from_state, guard, lib_error, lib_error_in, reduce, to_state};
 
 /// A measurement point (a serializable `records::frf::FrfPoint`).
@@ -894,10 +894,6 @@ fn frf(
         py,
         PyClassInitializer::from(FrfSet { state: set }).add_subclass(FrfResult { state: estimate }),
     )
-}
-
-fn json_text<T: Serialize>(value: &T) -> PyResult<String> {
-    serde_json::to_string(value).map_err(|e| error(format!("cannot convert to JSON: {e}")))
 }
 
 /// Paths: one path-like or a sequence of them.

@@ -44,6 +44,10 @@ pub struct IdentState {
     hit_quality_json: String,
     /// `Vec<records::consistency::ConsistencyFlag>` as JSON.
     inconsistent_hits_json: String,
+    /// `study::decimate::Decimation` as JSON, when the records were decimated.
+    decimation_json: Option<String>,
+    /// `study::analysis::InitialStateReport` as JSON, when it was judged.
+    initial_state_json: Option<String>,
     consistency_notes: Vec<String>,
     dropped_hits: Vec<String>,
     uncertainty: Option<Jackknife>,
@@ -200,6 +204,31 @@ impl Identification {
     #[getter]
     fn inconsistent_hits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         arrays::json(py, &self.state.inconsistent_hits_json)
+    }
+
+    /// The decimation before identification (a dict as ``decimation`` of
+    /// the command line's JSON: ``factor``, ``chosen``, ``original_rate_hz``,
+    /// ``rate_hz``, ``reason``, ``filter``...), or ``None`` when the records
+    /// were identified at their own rate.
+    #[getter]
+    fn decimation<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.state
+            .decimation_json
+            .as_deref()
+            .map(|j| arrays::json(py, j))
+            .transpose()
+    }
+
+    /// The initial state assumed and why (a dict as ``initial_state`` of
+    /// the command line's JSON: ``assumed``, ``chosen``, ``reason``), or
+    /// ``None`` when nothing was judged (hammer records under ``"auto"``).
+    #[getter]
+    fn initial_state<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.state
+            .initial_state_json
+            .as_deref()
+            .map(|j| arrays::json(py, j))
+            .transpose()
     }
 
     /// Findings of the consistency checks that flag no hit.
@@ -881,7 +910,17 @@ pub fn resolve_collocated(
 }
 
 /// A value's JSON text (for the fields kept as the command line prints them).
-fn json_text<T: Serialize>(value: &T) -> PyResult<String> {
+/// ``decimate=``: ``"auto"``, ``"off"`` or a factor (int, or its text), as
+/// ``--decimate``.
+#[derive(FromPyObject)]
+pub(crate) enum DecimateArg {
+    /// A factor given as an int.
+    Factor(usize),
+    /// ``"auto"``, ``"off"`` or a factor as text.
+    Text(String),
+}
+
+pub(crate) fn json_text<T: Serialize>(value: &T) -> PyResult<String> {
     serde_json::to_string(value).map_err(|e| error(format!("cannot convert to JSON: {e}")))
 }
 
@@ -914,9 +953,15 @@ fn check_observer_order(observer_order: Option<usize>) -> PyResult<()> {
 /// or ``"continuous"`` (shaker records), as ``--excitation``. ``modes``: one
 /// frequency per output (Hz), the structural modes nearest them form the
 /// model (``--modes``); ``band``: ``(low_hz, high_hz)``, only structural modes
-/// inside (``--band``). Runs without holding the interpreter.
+/// inside (``--band``). ``decimate``: ``"auto"`` (default: records sampled
+/// far above the modes' band are decimated), ``"off"`` or a factor, as
+/// ``--decimate`` (``Identification.decimation`` says what was done).
+/// ``initial_state``: ``"auto"`` (default), ``"at-rest"`` or ``"unknown"``
+/// (records that do not start at rest), as ``--initial-state``
+/// (``Identification.initial_state`` says what was assumed and why).
+/// Runs without holding the interpreter.
 #[pyfunction]
-#[pyo3(signature = (campaign, collocated=None, *, order=None, observer_order=None, intersample="bandlimited", strict=false, drop_bad_hits=false, uncertainty=true, refine=false, parametrization="full", excitation="auto", modes=None, band=None))]
+#[pyo3(signature = (campaign, collocated=None, *, order=None, observer_order=None, intersample="bandlimited", strict=false, drop_bad_hits=false, uncertainty=true, refine=false, parametrization="full", excitation="auto", modes=None, band=None, decimate=DecimateArg::Text("auto".into()), initial_state="auto"))]
 #[allow(clippy::too_many_arguments)]
 fn identify(
     py: Python<'_>,
@@ -933,10 +978,21 @@ fn identify(
     excitation: &str,
     modes: Option<Vec<f64>>,
     band: Option<(f64, f64)>,
+    decimate: DecimateArg,
+    initial_state: &str,
 ) -> PyResult<Identification> {
     let excitation: records::quality::Excitation = excitation
         .parse()
         .map_err(|e: String| error(format!("excitation: {e}")))?;
+    let decimation: study::decimate::DecimationSetting = match decimate {
+        DecimateArg::Factor(n) => n.to_string(),
+        DecimateArg::Text(t) => t,
+    }
+    .parse()
+    .map_err(|e: String| error(format!("decimate: {e}")))?;
+    let initial_state: study::analysis::InitialStateSetting = initial_state
+        .parse()
+        .map_err(|e: String| error(format!("initial_state: {e}")))?;
     let mode_selection = match (modes, band) {
         (Some(_), Some(_)) => {
             return Err(error("modes and band: choose one (as --modes and --band)"));
@@ -986,6 +1042,8 @@ fn identify(
         },
         uncertainty,
         refine: refine.then_some(parametrization),
+        decimation,
+        initial_state,
         ..AnalysisSettings::default()
     };
     let state = py.detach(|| {
@@ -997,6 +1055,12 @@ fn identify(
             }
             .map_err(lib_error)?;
             let hit_quality_json = json_text(&a.hit_quality)?;
+            // As the command line's JSON: absent when the records were
+            // identified at their own rate, or nothing was judged.
+            let decimation_json = (a.decimation.factor > 1 || a.decimation.chosen == "given")
+                .then(|| json_text(&a.decimation))
+                .transpose()?;
+            let initial_state_json = a.initial_state.as_ref().map(json_text).transpose()?;
             let inconsistent_hits_json = json_text(&a.consistency.flags)?;
             let ac = &a.campaign;
             Ok(IdentState {
@@ -1017,6 +1081,8 @@ fn identify(
                     .collect(),
                 hit_quality_json,
                 inconsistent_hits_json,
+                decimation_json,
+                initial_state_json,
                 consistency_notes: a.consistency.notes,
                 uncertainty: a.uncertainty,
                 uncertainty_skipped: a.uncertainty_skipped,
@@ -1069,6 +1135,8 @@ fn identify_realization(
             },
             identification: result,
             hit_quality_json: "[]".into(),
+            decimation_json: None,
+            initial_state_json: None,
             inconsistent_hits_json: "[]".into(),
             consistency_notes: Vec::new(),
             dropped_hits: Vec::new(),
