@@ -344,14 +344,17 @@ pub(crate) fn evaluate(
     for group in &spectra.groups {
         let nb = group.bins.len();
         let rows = 2 * nb * m;
+        let hits_here = group.hits.len();
         let sc_of = |bin: &Bin| (bin.weight / group.len as f64).sqrt();
         // The whitened, scaled transient regressors `X` (rows `row(bi, m, i)` and the next:
         // real and imaginary parts of `xw[bi m s + i + q m]`, column `q`) do not depend on
         // the hit: one copy per group, and one `X^T X`.
         let mut xw = vec![ZERO; nb * m * s];
-        let mut rs: Vec<DVector<f64>> = group.hits.iter().map(|_| DVector::zeros(rows)).collect();
+        // Whitened, scaled residuals, `rows` values per hit (slot).
+        let mut rs = vec![0.0; hits_here * rows];
         let mut cache = Cache::new(&work, nb);
-        let mut xtx = DMatrix::<f64>::zeros(s, s);
+        // Upper triangle of `X^T X`, column-major.
+        let mut xtx_upper = vec![0.0; s * s];
 
         // Pass 1: residual without transient, transient regressors.
         for (bi, bin) in group.bins.iter().enumerate() {
@@ -367,71 +370,75 @@ pub(crate) fn evaluate(
                 *x = t * sc;
             }
             for q2 in 0..s {
+                let b = &xb[q2 * m..(q2 + 1) * m];
                 for q1 in 0..=q2 {
+                    let a = &xb[q1 * m..(q1 + 1) * m];
                     let mut acc = 0.0;
-                    for i in 0..m {
-                        let (a, b) = (xb[i + q1 * m], xb[i + q2 * m]);
+                    for (a, b) in a.iter().zip(b) {
                         acc += a.re * b.re + a.im * b.im;
                     }
-                    xtx[(q1, q2)] += acc;
+                    xtx_upper[q1 + q2 * s] += acc;
                 }
             }
+            let g = &work.g;
             for (slot, &h) in group.hits.iter().enumerate() {
-                let (y, u) = (&spectra.y[h], &spectra.u[h]);
+                let y = &spectra.y[h].as_slice()[bi * m..(bi + 1) * m];
+                let u = &spectra.u[h].as_slice()[bi * r..(bi + 1) * r];
                 for i in 0..m {
-                    let mut v = y[(i, bi)];
-                    for l in 0..r {
-                        v -= work.g[i + l * m] * u[(l, bi)];
+                    let mut v = y[i];
+                    for (l, &ul) in u.iter().enumerate() {
+                        v -= g[i + l * m] * ul;
                     }
                     e[i] = v;
                 }
                 dense::forward_solve(&work.l, m, &mut e, 1);
-                let rv = &mut rs[slot];
-                for i in 0..m {
-                    let ro = row(bi, m, i);
-                    rv[ro] = sc * e[i].re;
-                    rv[ro + 1] = sc * e[i].im;
+                let rv = &mut rs[slot * rows + 2 * bi * m..slot * rows + 2 * (bi + 1) * m];
+                for (pair, ei) in rv.chunks_exact_mut(2).zip(&e) {
+                    pair[0] = sc * ei.re;
+                    pair[1] = sc * ei.im;
                 }
             }
         }
-        for q2 in 0..s {
-            for q1 in 0..q2 {
-                xtx[(q2, q1)] = xtx[(q1, q2)];
+        let xtx = DMatrix::from_fn(s, s, |a, b| {
+            if a <= b {
+                xtx_upper[a + b * s]
+            } else {
+                xtx_upper[b + a * s]
             }
-        }
+        });
         if let Some(all) = gains.as_mut() {
             all.push(DMatrix::from_fn(m * r, nb, |idx, bi| {
                 cache.g[bi * m * r + idx].norm_sqr()
             }));
         }
         // `X^T v` and `v - X sol` on the realified rows.
-        let xt_mul = |v: &DVector<f64>| -> DVector<f64> {
-            let mut out = DVector::zeros(s);
-            for bi in 0..nb {
-                let xb = &xw[bi * m * s..(bi + 1) * m * s];
-                for i in 0..m {
-                    let ro = row(bi, m, i);
-                    let (vr, vi) = (v[ro], v[ro + 1]);
-                    for q in 0..s {
-                        let x = xb[i + q * m];
-                        out[q] += x.re * vr + x.im * vi;
+        let xt_mul = |v: &[f64], out: &mut [f64]| {
+            out.fill(0.0);
+            for (xb, vb) in xw.chunks_exact(m * s).zip(v.chunks_exact(2 * m)) {
+                for (o, xq) in out.iter_mut().zip(xb.chunks_exact(m)) {
+                    let mut acc = 0.0;
+                    for (x, pair) in xq.iter().zip(vb.chunks_exact(2)) {
+                        acc += x.re * pair[0] + x.im * pair[1];
                     }
+                    *o += acc;
                 }
             }
-            out
         };
-        let sub_x = |v: &mut DVector<f64>, sol: &DVector<f64>| {
-            for bi in 0..nb {
-                let xb = &xw[bi * m * s..(bi + 1) * m * s];
-                for i in 0..m {
-                    let ro = row(bi, m, i);
+        let sub_x = |v: &mut [f64], sol: &[f64]| {
+            for (xb, vb) in xw.chunks_exact(m * s).zip(v.chunks_exact_mut(2 * m)) {
+                for (i, pair) in vb.chunks_exact_mut(2).enumerate() {
                     let mut acc = ZERO;
-                    for q in 0..s {
-                        acc += xb[i + q * m] * sol[q];
+                    for (q, &sq) in sol.iter().enumerate() {
+                        acc += xb[i + q * m] * sq;
                     }
-                    v[ro] -= acc.re;
-                    v[ro + 1] -= acc.im;
+                    pair[0] -= acc.re;
+                    pair[1] -= acc.im;
                 }
+            }
+        };
+        let inv_mul = |inv: &DMatrix<f64>, v: &[f64], out: &mut [f64]| {
+            for (a, o) in out.iter_mut().enumerate() {
+                *o = (0..s).map(|b| inv[(a, b)] * v[b]).sum();
             }
         };
 
@@ -439,16 +446,24 @@ pub(crate) fn evaluate(
         let r0s = rs.clone();
         // Transients by least squares, projected residuals.
         let xtx_inv = spd_inverse(&xtx);
+        let mut xtv = vec![0.0; s];
+        let mut sol = vec![0.0; s];
+        let mut correction = vec![0.0; s];
         for (slot, &h) in group.hits.iter().enumerate() {
-            let mut sol = &xtx_inv * xt_mul(&rs[slot]);
-            sub_x(&mut rs[slot], &sol);
+            let rv = &mut rs[slot * rows..(slot + 1) * rows];
+            xt_mul(rv, &mut xtv);
+            inv_mul(&xtx_inv, &xtv, &mut sol);
+            sub_x(rv, &sol);
             // One step of iterative refinement: the normal equations square the condition
             // number, and the gradient J^T r is exact only for r orthogonal to X.
-            let correction = &xtx_inv * xt_mul(&rs[slot]);
-            sub_x(&mut rs[slot], &correction);
-            sol += correction;
-            cost += rs[slot].norm_squared();
-            xi[h] = sol;
+            xt_mul(rv, &mut xtv);
+            inv_mul(&xtx_inv, &xtv, &mut correction);
+            sub_x(rv, &correction);
+            for (a, c) in sol.iter_mut().zip(&correction) {
+                *a += c;
+            }
+            cost += rv.iter().map(|v| v * v).sum::<f64>();
+            xi[h] = DVector::from_column_slice(&sol);
         }
         if !cost.is_finite() {
             return Err(Singular);
@@ -461,7 +476,7 @@ pub(crate) fn evaluate(
                 if ro % 2 == 0 { v.re } else { v.im }
             });
             matrices[h] = HitMatrices {
-                r0: r0s[slot].clone(),
+                r0: DVector::from_column_slice(&r0s[slot * rows..(slot + 1) * rows]),
                 x,
                 j: None,
             };
@@ -469,6 +484,7 @@ pub(crate) fn evaluate(
 
         if let Some(res) = residuals.as_mut() {
             for (slot, &h) in group.hits.iter().enumerate() {
+                let rv = &rs[slot * rows..(slot + 1) * rows];
                 let mut out = DMatrix::zeros(m, nb);
                 for (bi, bin) in group.bins.iter().enumerate() {
                     let l = slice(&cache.l, bi, m * m);
@@ -477,7 +493,7 @@ pub(crate) fn evaluate(
                         let mut v = ZERO;
                         for k in 0..=i {
                             let ro = row(bi, m, k);
-                            v += l[i + k * m] * C64::new(rs[slot][ro], rs[slot][ro + 1]);
+                            v += l[i + k * m] * C64::new(rv[ro], rv[ro + 1]);
                         }
                         out[(i, bi)] = v / sc;
                     }
@@ -491,7 +507,6 @@ pub(crate) fn evaluate(
         let (Some(weight_derivative), Some(der)) = (jac, derivs) else {
             continue;
         };
-        let hits_here = group.hits.len();
         let mut jtx = vec![0.0; hits_here * np * s];
         let mut jtr = vec![0.0; hits_here * np];
         #[cfg(test)]
@@ -500,16 +515,22 @@ pub(crate) fn evaluate(
             .iter()
             .map(|_| DMatrix::zeros(rows, np))
             .collect();
-        let mut ma = vec![ZERO; np * m * s];
+        let mut ma = vec![ZERO; m * s];
+        let mut mx = vec![ZERO; np * m * s];
+        let mut rz = vec![ZERO; s * s];
         let mut dg = vec![ZERO; np * m * r];
         let mut phi = vec![ZERO; np * m * m];
         let mut bw = vec![ZERO; m * r];
         let mut aw = vec![ZERO; m * r];
         let mut eg = vec![ZERO; n * r];
-        let nt = r + s + m;
-        let mut coef = vec![ZERO; nt];
-        let mut wre = vec![0.0; m * nt * np];
-        let mut wim = vec![0.0; m * nt * np];
+        // Complex terms of row `i`: the `r` inputs and, with the weight derivative, the
+        // whitened residuals `0..=i`; real terms: the `s` transient components.
+        let nc = r + if weight_derivative { m } else { 0 };
+        let mut coef = vec![ZERO; nc];
+        let mut wre = vec![0.0; m * nc * np];
+        let mut wim = vec![0.0; m * nc * np];
+        let mut sre = vec![0.0; m * s * np];
+        let mut sim = vec![0.0; m * s * np];
         let mut xre = vec![0.0; m * s];
         let mut xim = vec![0.0; m * s];
         let mut jre = vec![0.0; np];
@@ -525,15 +546,19 @@ pub(crate) fn evaluate(
             let l = slice(&cache.l, bi, m * m);
             let xb = &xw[bi * m * s..(bi + 1) * m * s];
             let sc = sc_of(bin);
+            for (a, b) in rz.iter_mut().zip(res) {
+                *a = b * bin.z;
+            }
             for p in 0..np {
-                let ma_p = &mut ma[p * m * s..(p + 1) * m * s];
-                ma_p.copy_from_slice(der.c[p].as_slice());
-                dense::mul_add(cr, m, s, der.ad[p].as_slice(), s, ma_p);
+                // `d(L^-1 T)/dtheta_p (z I - A_d)^-1 z` at fixed whitening: the derivative of
+                // the transient's regressor, so that its coefficients are the real `xi`.
+                ma.copy_from_slice(der.c[p].as_slice());
+                dense::mul_add(cr, m, s, der.ad[p].as_slice(), s, &mut ma);
                 let dg_p = &mut dg[p * m * r..(p + 1) * m * r];
                 match model.intersample {
                     Intersample::Zoh => {
                         dg_p.copy_from_slice(der.d[p].as_slice());
-                        dense::mul_add(ma_p, m, s, slice(&cache.rb, bi, s * r), r, dg_p);
+                        dense::mul_add(&ma, m, s, slice(&cache.rb, bi, s * r), r, dg_p);
                         dense::mul_add(cr, m, s, der.bd[p].as_slice(), r, dg_p);
                     }
                     Intersample::Bandlimited => {
@@ -552,8 +577,9 @@ pub(crate) fn evaluate(
                     }
                 }
                 // Whitened once per bin, shared by the hits.
-                dense::forward_solve(l, m, ma_p, s);
+                dense::forward_solve(l, m, &mut ma, s);
                 dense::forward_solve(l, m, dg_p, r);
+                dense::mul(&ma, m, s, &rz, s, &mut mx[p * m * s..(p + 1) * m * s]);
             }
             if weight_derivative {
                 // L^-1 dC L^-H = a b^H + b a^H with b = L^-1 G Su^1/2, a = L^-1 dG Su^1/2;
@@ -584,59 +610,67 @@ pub(crate) fn evaluate(
                 }
             }
             // Row `i` of a hit's Jacobian is `-sum_t W_it c_t` over the terms `t`: the
-            // input DFTs (`dG`), the transient's state response (`dA_d`, `dC`) and, with the
-            // weight derivative, the whitened residuals (`Phi`). `W` (scaled by `-sc`) is
-            // stored split into real and imaginary parts with the parameter index
-            // innermost, so that the per-hit sums run over contiguous parameters.
-            let terms_of = |i: usize| r + s + if weight_derivative { i + 1 } else { 0 };
+            // input DFTs (`dG`), with the weight derivative the whitened residuals (`Phi`),
+            // and the transient (real coefficients `xi`, regressor derivative `mx`). `W`
+            // (scaled by `-sc`) is stored split into real and imaginary parts with the
+            // parameter index innermost, so that the per-hit sums run over contiguous
+            // parameters.
+            let complex_terms = |i: usize| r + if weight_derivative { i + 1 } else { 0 };
             for i in 0..m {
-                for t in 0..terms_of(i) {
-                    let base = (i * nt + t) * np;
+                for t in 0..complex_terms(i) {
+                    let base = (i * nc + t) * np;
                     for p in 0..np {
                         let w = if t < r {
                             dg[p * m * r + i + t * m]
-                        } else if t < r + s {
-                            ma[p * m * s + i + (t - r) * m]
                         } else {
-                            phi[p * m * m + i + (t - r - s) * m]
+                            phi[p * m * m + i + (t - r) * m]
                         } * -sc;
                         wre[base + p] = w.re;
                         wim[base + p] = w.im;
                     }
                 }
                 for q in 0..s {
+                    let base = (i * s + q) * np;
+                    for p in 0..np {
+                        let w = mx[p * m * s + i + q * m] * -sc;
+                        sre[base + p] = w.re;
+                        sim[base + p] = w.im;
+                    }
                     xre[i * s + q] = xb[i + q * m].re;
                     xim[i * s + q] = xb[i + q * m].im;
                 }
             }
             for (slot, &h) in group.hits.iter().enumerate() {
-                let u = &spectra.u[h];
-                let xi_h = &xi[h];
-                let rv = &rs[slot];
-                for li in 0..r {
-                    coef[li] = u[(li, bi)];
-                }
-                for i in 0..s {
-                    let mut acc = ZERO;
-                    for q in 0..s {
-                        acc += res[i + q * s] * xi_h[q];
-                    }
-                    coef[r + i] = acc * bin.z;
-                }
+                let u = &spectra.u[h].as_slice()[bi * r..(bi + 1) * r];
+                let xi_h = xi[h].as_slice();
+                let rv = &rs[slot * rows + 2 * bi * m..slot * rows + 2 * (bi + 1) * m];
+                coef[..r].copy_from_slice(u);
                 if weight_derivative {
                     for i in 0..m {
-                        let ro = row(bi, m, i);
-                        coef[r + s + i] = C64::new(rv[ro], rv[ro + 1]) / sc;
+                        coef[r + i] = C64::new(rv[2 * i], rv[2 * i + 1]) / sc;
                     }
                 }
                 let jtx_h = &mut jtx[slot * np * s..(slot + 1) * np * s];
                 let jtr_h = &mut jtr[slot * np..(slot + 1) * np];
                 for i in 0..m {
-                    let ro = row(bi, m, i);
-                    jre.fill(0.0);
-                    jim.fill(0.0);
-                    for (t, c) in coef[..terms_of(i)].iter().enumerate() {
-                        let base = (i * nt + t) * np;
+                    // Transient terms (real coefficients) first, then the complex ones.
+                    let base = i * s * np;
+                    let (s_re, s_im) = (&sre[base..base + np], &sim[base..base + np]);
+                    let x0 = xi_h[0];
+                    for p in 0..np {
+                        jre[p] = s_re[p] * x0;
+                        jim[p] = s_im[p] * x0;
+                    }
+                    for (q, &xq) in xi_h.iter().enumerate().skip(1) {
+                        let base = (i * s + q) * np;
+                        let (s_re, s_im) = (&sre[base..base + np], &sim[base..base + np]);
+                        for p in 0..np {
+                            jre[p] += s_re[p] * xq;
+                            jim[p] += s_im[p] * xq;
+                        }
+                    }
+                    for (t, c) in coef[..complex_terms(i)].iter().enumerate() {
+                        let base = (i * nc + t) * np;
                         complex_axpy(
                             &mut jre,
                             &mut jim,
@@ -646,11 +680,14 @@ pub(crate) fn evaluate(
                         );
                     }
                     #[cfg(test)]
-                    for p in 0..np {
-                        jts[slot][(ro, p)] = jre[p];
-                        jts[slot][(ro + 1, p)] = jim[p];
+                    {
+                        let ro = row(bi, m, i);
+                        for p in 0..np {
+                            jts[slot][(ro, p)] = jre[p];
+                            jts[slot][(ro + 1, p)] = jim[p];
+                        }
                     }
-                    let (rr, ri) = (rv[ro], rv[ro + 1]);
+                    let (rr, ri) = (rv[2 * i], rv[2 * i + 1]);
                     let (x_re, x_im) = (&xre[i * s..(i + 1) * s], &xim[i * s..(i + 1) * s]);
                     for p in 0..np {
                         let (a, b) = (jre[p], jim[p]);
@@ -829,14 +866,37 @@ pub(crate) fn estimate_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit)
         dof_factor,
         ..
     } = *fit;
-    // Observations: (channel, |G_i.|^2, q).
-    let mut obs: Vec<(usize, usize, usize, f64)> = Vec::new(); // (channel, group, bin, q)
+    // Observations `q = |e_ik|^2 / N`. The regressor and the IRLS weight of an observation
+    // depend only on its (channel, group, bin), not on the hit: the hits' `q` are summed
+    // per cell once, so each iteration costs one pass over the cells instead of over every
+    // observation (the same normal equations, summed in another order).
+    struct Cell {
+        channel: usize,
+        group: usize,
+        bin: usize,
+        count: f64,
+        q_sum: f64,
+    }
+    let mut cells: Vec<Cell> = Vec::new();
     for (gi, group) in spectra.groups.iter().enumerate() {
+        let nb = group.bins.len();
+        let first = cells.len();
+        for bi in 0..nb {
+            for i in 0..m {
+                cells.push(Cell {
+                    channel: i,
+                    group: gi,
+                    bin: bi,
+                    count: group.hits.len() as f64,
+                    q_sum: 0.0,
+                });
+            }
+        }
         for &h in &group.hits {
             let res = &residuals[h];
-            for bi in 0..group.bins.len() {
+            for bi in 0..nb {
                 for i in 0..m {
-                    obs.push((i, gi, bi, res[(i, bi)].norm_sqr() / group.len as f64));
+                    cells[first + bi * m + i].q_sum += res[(i, bi)].norm_sqr() / group.len as f64;
                 }
             }
         }
@@ -853,31 +913,32 @@ pub(crate) fn estimate_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit)
     };
     // Start: output noise only, channel means.
     let mut theta = vec![0.0; unknowns];
-    let mut counts = vec![0usize; m];
-    for &(i, _, _, q) in &obs {
-        theta[i] += q;
-        counts[i] += 1;
+    let mut counts = vec![0.0; m];
+    for cell in &cells {
+        theta[cell.channel] += cell.q_sum;
+        counts[cell.channel] += cell.count;
     }
     for i in 0..m {
-        theta[i] /= counts[i].max(1) as f64;
+        theta[i] /= counts[i].max(1.0);
     }
     let mut x = vec![0.0; unknowns];
     let mut active = vec![true; unknowns];
     for _ in 0..30 {
         let mut ata = DMatrix::<f64>::zeros(unknowns, unknowns);
         let mut atb = DVector::<f64>::zeros(unknowns);
-        for &(i, gi, bi, q) in &obs {
-            regressor(i, gi, bi, &mut x);
+        for cell in &cells {
+            regressor(cell.channel, cell.group, cell.bin, &mut x);
             let v: f64 = x.iter().zip(&theta).map(|(a, b)| a * b).sum();
             let w = 1.0 / (v * v).max(f64::MIN_POSITIVE);
+            let (wq, wn) = (w * cell.q_sum, w * cell.count);
             for a in 0..unknowns {
                 if !active[a] || x[a] == 0.0 {
                     continue;
                 }
-                atb[a] += w * x[a] * q;
+                atb[a] += wq * x[a];
                 for b in 0..unknowns {
                     if active[b] {
-                        ata[(a, b)] += w * x[a] * x[b];
+                        ata[(a, b)] += wn * x[a] * x[b];
                     }
                 }
             }
