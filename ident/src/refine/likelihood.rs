@@ -242,6 +242,27 @@ pub(crate) fn eliminate_nuisance(
     (f, jt * r)
 }
 
+/// `a . b` with four partial sums (a fixed order: the result does not depend on threads).
+#[inline]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut acc = [0.0; 4];
+    let (ac, bc) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ar, br) = (ac.remainder(), bc.remainder());
+    for (x, y) in ac.zip(bc) {
+        acc[0] += x[0] * y[0];
+        acc[1] += x[1] * y[1];
+        acc[2] += x[2] * y[2];
+        acc[3] += x[3] * y[3];
+    }
+    let mut tail = 0.0;
+    for (x, y) in ar.iter().zip(br) {
+        tail += x * y;
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
 /// `(re, im) += w c` elementwise, `w` given by its real and imaginary parts.
 #[inline]
 fn complex_axpy(re: &mut [f64], im: &mut [f64], w_re: &[f64], w_im: &[f64], c: C64) {
@@ -258,6 +279,9 @@ fn complex_axpy(re: &mut [f64], im: &mut [f64], w_re: &[f64], w_im: &[f64], c: C
 fn row(bi: usize, m: usize, i: usize) -> usize {
     2 * (bi * m + i)
 }
+
+/// Bins whose Jacobian rows are reduced together (bounds the memory of long records).
+const BLOCK_BINS: usize = 64;
 
 /// Per-bin model quantities of a group, kept between the passes.
 struct Cache {
@@ -411,28 +435,27 @@ pub(crate) fn evaluate(
                 cache.g[bi * m * r + idx].norm_sqr()
             }));
         }
-        // `X^T v` and `v - X sol` on the realified rows.
-        let xt_mul = |v: &[f64], out: &mut [f64]| {
-            out.fill(0.0);
-            for (xb, vb) in xw.chunks_exact(m * s).zip(v.chunks_exact(2 * m)) {
-                for (o, xq) in out.iter_mut().zip(xb.chunks_exact(m)) {
-                    let mut acc = 0.0;
-                    for (x, pair) in xq.iter().zip(vb.chunks_exact(2)) {
-                        acc += x.re * pair[0] + x.im * pair[1];
-                    }
-                    *o += acc;
+        // The realified `X`, column-major (`rows` x `s`): `X^T v` and `v - X sol` are
+        // dot products and axpys over whole columns.
+        let mut xreal = vec![0.0; rows * s];
+        for (bi, xb) in xw.chunks_exact(m * s).enumerate() {
+            for q in 0..s {
+                let col = &mut xreal[q * rows + 2 * bi * m..q * rows + 2 * (bi + 1) * m];
+                for (pair, x) in col.chunks_exact_mut(2).zip(&xb[q * m..(q + 1) * m]) {
+                    pair[0] = x.re;
+                    pair[1] = x.im;
                 }
+            }
+        }
+        let xt_mul = |v: &[f64], out: &mut [f64]| {
+            for (q, o) in out.iter_mut().enumerate() {
+                *o = dot(&xreal[q * rows..(q + 1) * rows], v);
             }
         };
         let sub_x = |v: &mut [f64], sol: &[f64]| {
-            for (xb, vb) in xw.chunks_exact(m * s).zip(v.chunks_exact_mut(2 * m)) {
-                for (i, pair) in vb.chunks_exact_mut(2).enumerate() {
-                    let mut acc = ZERO;
-                    for (q, &sq) in sol.iter().enumerate() {
-                        acc += xb[i + q * m] * sq;
-                    }
-                    pair[0] -= acc.re;
-                    pair[1] -= acc.im;
+            for (q, &sq) in sol.iter().enumerate() {
+                for (a, &x) in v.iter_mut().zip(&xreal[q * rows..(q + 1) * rows]) {
+                    *a -= x * sq;
                 }
             }
         };
@@ -470,11 +493,7 @@ pub(crate) fn evaluate(
         }
         #[cfg(test)]
         for (slot, &h) in group.hits.iter().enumerate() {
-            let x = DMatrix::from_fn(rows, s, |ro, q| {
-                let (bi, i) = (ro / 2 / m, ro / 2 % m);
-                let v = xw[bi * m * s + i + q * m];
-                if ro % 2 == 0 { v.re } else { v.im }
-            });
+            let x = DMatrix::from_column_slice(rows, s, &xreal);
             matrices[h] = HitMatrices {
                 r0: DVector::from_column_slice(&r0s[slot * rows..(slot + 1) * rows]),
                 x,
@@ -507,6 +526,33 @@ pub(crate) fn evaluate(
         let (Some(weight_derivative), Some(der)) = (jac, derivs) else {
             continue;
         };
+        // The model's derivatives are real; they are laid out with the parameter index
+        // innermost, so that the per-bin products below run over contiguous parameters.
+        let by_param = |rows: usize, cols: usize, get: &dyn Fn(usize, usize, usize) -> f64| {
+            let mut out = vec![0.0; rows * cols * np];
+            for a in 0..rows {
+                for b in 0..cols {
+                    for p in 0..np {
+                        out[(a * cols + b) * np + p] = get(p, a, b);
+                    }
+                }
+            }
+            out
+        };
+        let dc = by_param(m, s, &|p, i, q| der.c[p][(i, q)].re);
+        let dad = by_param(s, s, &|p, t, q| der.ad[p][(t, q)].re);
+        let (dd, dbd, basis) = match model.intersample {
+            Intersample::Zoh => (
+                by_param(m, r, &|p, i, l| der.d[p][(i, l)].re),
+                by_param(s, r, &|p, q, l| der.bd[p][(q, l)].re),
+                Vec::new(),
+            ),
+            Intersample::Bandlimited => (
+                Vec::new(),
+                Vec::new(),
+                by_param(n, n, &|p, j, k| params[p].basis[(j, k)]),
+            ),
+        };
         let mut jtx = vec![0.0; hits_here * np * s];
         let mut jtr = vec![0.0; hits_here * np];
         #[cfg(test)]
@@ -515,14 +561,15 @@ pub(crate) fn evaluate(
             .iter()
             .map(|_| DMatrix::zeros(rows, np))
             .collect();
-        let mut ma = vec![ZERO; m * s];
-        let mut mx = vec![ZERO; np * m * s];
-        let mut rz = vec![ZERO; s * s];
-        let mut dg = vec![ZERO; np * m * r];
-        let mut phi = vec![ZERO; np * m * m];
+        // Per bin, `[(a * cols + b) * np + p]`: `dC + C (z I - A_d)^-1 dA_d` (m x s, real and
+        // imaginary parts), `dG` (m x r) and, band-limited, `E_p G` (n x r).
+        let mut ma_re = vec![0.0; m * s * np];
+        let mut ma_im = vec![0.0; m * s * np];
+        let mut dg = vec![ZERO; m * r * np];
+        let mut eg = vec![ZERO; n * r * np];
+        let mut factor = vec![ZERO; np];
         let mut bw = vec![ZERO; m * r];
         let mut aw = vec![ZERO; m * r];
-        let mut eg = vec![ZERO; n * r];
         // Complex terms of row `i`: the `r` inputs and, with the weight derivative, the
         // whitened residuals `0..=i`; real terms: the `s` transient components.
         let nc = r + if weight_derivative { m } else { 0 };
@@ -531,59 +578,174 @@ pub(crate) fn evaluate(
         let mut wim = vec![0.0; m * nc * np];
         let mut sre = vec![0.0; m * s * np];
         let mut sim = vec![0.0; m * s * np];
-        let mut xre = vec![0.0; m * s];
-        let mut xim = vec![0.0; m * s];
+        // Jacobian rows of a block of bins, column-major (one column per parameter, rows
+        // ordered by hit, bin, output, real and imaginary part), reduced by dot products
+        // over whole columns when the block is full.
+        let cap = hits_here * 2 * m * BLOCK_BINS.min(nb);
+        let mut jblk = vec![0.0; np * cap];
         let mut jre = vec![0.0; np];
         let mut jim = vec![0.0; np];
-        let bases: Vec<DMatrix<C64>> = params
-            .iter()
-            .map(|p| p.basis.map(|x| C64::new(x, 0.0)))
-            .collect();
         for (bi, bin) in group.bins.iter().enumerate() {
             let res = slice(&cache.res, bi, s * s);
             let cr = slice(&cache.cr, bi, m * s);
             let g = slice(&cache.g, bi, m * r);
             let l = slice(&cache.l, bi, m * m);
-            let xb = &xw[bi * m * s..(bi + 1) * m * s];
             let sc = sc_of(bin);
-            for (a, b) in rz.iter_mut().zip(res) {
-                *a = b * bin.z;
-            }
-            for p in 0..np {
-                // `d(L^-1 T)/dtheta_p (z I - A_d)^-1 z` at fixed whitening: the derivative of
-                // the transient's regressor, so that its coefficients are the real `xi`.
-                ma.copy_from_slice(der.c[p].as_slice());
-                dense::mul_add(cr, m, s, der.ad[p].as_slice(), s, &mut ma);
-                let dg_p = &mut dg[p * m * r..(p + 1) * m * r];
-                match model.intersample {
-                    Intersample::Zoh => {
-                        dg_p.copy_from_slice(der.d[p].as_slice());
-                        dense::mul_add(&ma, m, s, slice(&cache.rb, bi, s * r), r, dg_p);
-                        dense::mul_add(cr, m, s, der.bd[p].as_slice(), r, dg_p);
+            // dT/dtheta_p (z I - A_d)^-1 with T = C (z I - A_d)^-1 z: `dC + C R dA_d`.
+            for i in 0..m {
+                for q in 0..s {
+                    let o = (i * s + q) * np;
+                    let (are, aim) = (&mut ma_re[o..o + np], &mut ma_im[o..o + np]);
+                    are.copy_from_slice(&dc[o..o + np]);
+                    aim.fill(0.0);
+                    for t in 0..s {
+                        let c = cr[i + t * m];
+                        let d = &dad[(t * s + q) * np..(t * s + q + 1) * np];
+                        for p in 0..np {
+                            are[p] += c.re * d[p];
+                            aim[p] += c.im * d[p];
+                        }
                     }
-                    Intersample::Bandlimited => {
-                        // dG = -s^2 Q^-1 dQ Q^-1 B2 = -f Q^-1 E G, dQ = f E.
-                        let w = bin.omega;
-                        let f = match params[p].matrix {
+                }
+            }
+            match model.intersample {
+                Intersample::Zoh => {
+                    // dG = dD + (dC + C R dA_d) R B_d + C R dB_d.
+                    let rb = slice(&cache.rb, bi, s * r);
+                    for i in 0..m {
+                        for li in 0..r {
+                            let o = (i * r + li) * np;
+                            let out = &mut dg[o..o + np];
+                            for (v, &d) in out.iter_mut().zip(&dd[o..o + np]) {
+                                *v = C64::new(d, 0.0);
+                            }
+                            for q in 0..s {
+                                let b = rb[q + li * s];
+                                let c = cr[i + q * m];
+                                let a = (i * s + q) * np;
+                                let (are, aim) = (&ma_re[a..a + np], &ma_im[a..a + np]);
+                                let e = &dbd[(q * r + li) * np..(q * r + li + 1) * np];
+                                for p in 0..np {
+                                    out[p] += C64::new(are[p], aim[p]) * b + c * e[p];
+                                }
+                            }
+                        }
+                    }
+                }
+                Intersample::Bandlimited => {
+                    // dG = -s^2 Q^-1 dQ Q^-1 B2 = -f Q^-1 E G, dQ = f E.
+                    let w = bin.omega;
+                    for (f, p) in factor.iter_mut().zip(params) {
+                        *f = -match p.matrix {
                             MatrixKind::Mass => C64::new(-w * w, 0.0),
                             MatrixKind::Damping => C64::new(0.0, w),
                             MatrixKind::Stiffness => C64::new(1.0, 0.0),
                         };
-                        dense::mul(bases[p].as_slice(), n, n, g, r, &mut eg);
-                        dense::mul(slice(&cache.qi, bi, n * n), n, n, &eg, r, dg_p);
-                        for x in dg_p.iter_mut() {
-                            *x *= -f;
+                    }
+                    for j in 0..n {
+                        for li in 0..r {
+                            let out = &mut eg[(j * r + li) * np..(j * r + li + 1) * np];
+                            out.fill(ZERO);
+                            for k in 0..n {
+                                let gk = g[k + li * m];
+                                let e = &basis[(j * n + k) * np..(j * n + k + 1) * np];
+                                for p in 0..np {
+                                    out[p] += gk * e[p];
+                                }
+                            }
+                        }
+                    }
+                    let qi = slice(&cache.qi, bi, n * n);
+                    for i in 0..n {
+                        for li in 0..r {
+                            let o = (i * r + li) * np;
+                            let out = &mut dg[o..o + np];
+                            out.fill(ZERO);
+                            for j in 0..n {
+                                let qij = qi[i + j * n];
+                                let e = &eg[(j * r + li) * np..(j * r + li + 1) * np];
+                                for p in 0..np {
+                                    out[p] += qij * e[p];
+                                }
+                            }
+                            for (v, f) in out.iter_mut().zip(&factor) {
+                                *v *= f;
+                            }
                         }
                     }
                 }
-                // Whitened once per bin, shared by the hits.
-                dense::forward_solve(l, m, &mut ma, s);
-                dense::forward_solve(l, m, dg_p, r);
-                dense::mul(&ma, m, s, &rz, s, &mut mx[p * m * s..(p + 1) * m * s]);
+            }
+            // Whitened once per bin, shared by the hits: forward substitution with `L`
+            // (real diagonal) on the output index.
+            for i in 0..m {
+                for k in 0..i {
+                    let lik = l[i + k * m];
+                    for q in 0..s {
+                        let (oi, ok) = ((i * s + q) * np, (k * s + q) * np);
+                        for p in 0..np {
+                            let (kr, ki) = (ma_re[ok + p], ma_im[ok + p]);
+                            ma_re[oi + p] -= lik.re * kr - lik.im * ki;
+                            ma_im[oi + p] -= lik.re * ki + lik.im * kr;
+                        }
+                    }
+                    for li in 0..r {
+                        let (oi, ok) = ((i * r + li) * np, (k * r + li) * np);
+                        for p in 0..np {
+                            let v = dg[ok + p];
+                            dg[oi + p] -= lik * v;
+                        }
+                    }
+                }
+                let d = l[i + i * m].re;
+                for v in &mut ma_re[i * s * np..(i + 1) * s * np] {
+                    *v /= d;
+                }
+                for v in &mut ma_im[i * s * np..(i + 1) * s * np] {
+                    *v /= d;
+                }
+                for v in &mut dg[i * r * np..(i + 1) * r * np] {
+                    *v /= d;
+                }
+            }
+            // Transient terms: `-sc L^-1 (dC + C R dA_d) R z`, the derivative of the
+            // whitened transient regressor, whose coefficients are the real `xi`.
+            for i in 0..m {
+                for q2 in 0..s {
+                    let o = (i * s + q2) * np;
+                    let (outr, outi) = (&mut sre[o..o + np], &mut sim[o..o + np]);
+                    outr.fill(0.0);
+                    outi.fill(0.0);
+                    for q in 0..s {
+                        let rzq = res[q + q2 * s] * bin.z;
+                        let a = (i * s + q) * np;
+                        let (are, aim) = (&ma_re[a..a + np], &ma_im[a..a + np]);
+                        for p in 0..np {
+                            outr[p] += are[p] * rzq.re - aim[p] * rzq.im;
+                            outi[p] += are[p] * rzq.im + aim[p] * rzq.re;
+                        }
+                    }
+                    for (vr, vi) in outr.iter_mut().zip(outi.iter_mut()) {
+                        *vr *= -sc;
+                        *vi *= -sc;
+                    }
+                }
+            }
+            // Complex terms: the input DFTs (`dG`) and, with the weight derivative, the
+            // whitened residuals (`Phi`): L^-1 dC L^-H = a b^H + b a^H with
+            // b = L^-1 G Su^1/2, a = L^-1 dG Su^1/2; d(L^-1) e = -Phi(L^-1 dC L^-H) L^-1 e
+            // (Cholesky derivative).
+            for i in 0..m {
+                for t in 0..r {
+                    let base = (i * nc + t) * np;
+                    let o = (i * r + t) * np;
+                    for p in 0..np {
+                        let w = dg[o + p] * -sc;
+                        wre[base + p] = w.re;
+                        wim[base + p] = w.im;
+                    }
+                }
             }
             if weight_derivative {
-                // L^-1 dC L^-H = a b^H + b a^H with b = L^-1 G Su^1/2, a = L^-1 dG Su^1/2;
-                // d(L^-1) e = -Phi(L^-1 dC L^-H) L^-1 e (Cholesky derivative).
                 for li in 0..r {
                     for i in 0..m {
                         bw[i + li * m] = g[i + li * m] * noise.inputs[li];
@@ -593,10 +755,9 @@ pub(crate) fn evaluate(
                 for p in 0..np {
                     for li in 0..r {
                         for i in 0..m {
-                            aw[i + li * m] = dg[p * m * r + i + li * m] * noise.inputs[li];
+                            aw[i + li * m] = dg[(i * r + li) * np + p] * noise.inputs[li];
                         }
                     }
-                    let ph = &mut phi[p * m * m..(p + 1) * m * m];
                     for j in 0..m {
                         for i in j..m {
                             let mut sij = ZERO;
@@ -604,42 +765,19 @@ pub(crate) fn evaluate(
                                 sij += aw[i + li * m] * bw[j + li * m].conj()
                                     + bw[i + li * m] * aw[j + li * m].conj();
                             }
-                            ph[i + j * m] = if i == j { sij * 0.5 } else { sij };
+                            let w = if i == j { sij * 0.5 } else { sij } * -sc;
+                            let base = (i * nc + r + j) * np;
+                            wre[base + p] = w.re;
+                            wim[base + p] = w.im;
                         }
                     }
                 }
             }
-            // Row `i` of a hit's Jacobian is `-sum_t W_it c_t` over the terms `t`: the
-            // input DFTs (`dG`), with the weight derivative the whitened residuals (`Phi`),
-            // and the transient (real coefficients `xi`, regressor derivative `mx`). `W`
-            // (scaled by `-sc`) is stored split into real and imaginary parts with the
-            // parameter index innermost, so that the per-hit sums run over contiguous
-            // parameters.
             let complex_terms = |i: usize| r + if weight_derivative { i + 1 } else { 0 };
-            for i in 0..m {
-                for t in 0..complex_terms(i) {
-                    let base = (i * nc + t) * np;
-                    for p in 0..np {
-                        let w = if t < r {
-                            dg[p * m * r + i + t * m]
-                        } else {
-                            phi[p * m * m + i + (t - r) * m]
-                        } * -sc;
-                        wre[base + p] = w.re;
-                        wim[base + p] = w.im;
-                    }
-                }
-                for q in 0..s {
-                    let base = (i * s + q) * np;
-                    for p in 0..np {
-                        let w = mx[p * m * s + i + q * m] * -sc;
-                        sre[base + p] = w.re;
-                        sim[base + p] = w.im;
-                    }
-                    xre[i * s + q] = xb[i + q * m].re;
-                    xim[i * s + q] = xb[i + q * m].im;
-                }
-            }
+            // Rows of this bin in the block: hit `slot`, output `i`, real and imaginary.
+            let b0 = bi - bi % BLOCK_BINS;
+            let nbb = BLOCK_BINS.min(nb - b0);
+            let seg = 2 * m * nbb;
             for (slot, &h) in group.hits.iter().enumerate() {
                 let u = &spectra.u[h].as_slice()[bi * r..(bi + 1) * r];
                 let xi_h = xi[h].as_slice();
@@ -650,23 +788,20 @@ pub(crate) fn evaluate(
                         coef[r + i] = C64::new(rv[2 * i], rv[2 * i + 1]) / sc;
                     }
                 }
-                let jtx_h = &mut jtx[slot * np * s..(slot + 1) * np * s];
-                let jtr_h = &mut jtr[slot * np..(slot + 1) * np];
                 for i in 0..m {
                     // Transient terms (real coefficients) first, then the complex ones.
-                    let base = i * s * np;
-                    let (s_re, s_im) = (&sre[base..base + np], &sim[base..base + np]);
-                    let x0 = xi_h[0];
-                    for p in 0..np {
-                        jre[p] = s_re[p] * x0;
-                        jim[p] = s_im[p] * x0;
-                    }
-                    for (q, &xq) in xi_h.iter().enumerate().skip(1) {
+                    jre.fill(0.0);
+                    jim.fill(0.0);
+                    for (q, &xq) in xi_h.iter().enumerate() {
                         let base = (i * s + q) * np;
                         let (s_re, s_im) = (&sre[base..base + np], &sim[base..base + np]);
-                        for p in 0..np {
-                            jre[p] += s_re[p] * xq;
-                            jim[p] += s_im[p] * xq;
+                        for ((a, b), (&wr, &wi)) in jre
+                            .iter_mut()
+                            .zip(jim.iter_mut())
+                            .zip(s_re.iter().zip(s_im))
+                        {
+                            *a += wr * xq;
+                            *b += wi * xq;
                         }
                     }
                     for (t, c) in coef[..complex_terms(i)].iter().enumerate() {
@@ -687,19 +822,33 @@ pub(crate) fn evaluate(
                             jts[slot][(ro + 1, p)] = jim[p];
                         }
                     }
-                    let (rr, ri) = (rv[2 * i], rv[2 * i + 1]);
-                    let (x_re, x_im) = (&xre[i * s..(i + 1) * s], &xim[i * s..(i + 1) * s]);
+                    let ro = slot * seg + (bi - b0) * 2 * m + 2 * i;
+                    for (p, (&a, &b)) in jre.iter().zip(&jim).enumerate() {
+                        jblk[p * cap + ro] = a;
+                        jblk[p * cap + ro + 1] = b;
+                    }
+                }
+            }
+            if bi + 1 == b0 + nbb {
+                // Block full: `J^T J` over all its rows, `J^T X` and `J^T r` per hit.
+                let used = hits_here * seg;
+                for p in 0..np {
+                    let cp = &jblk[p * cap..p * cap + used];
+                    for q in p..np {
+                        jtj[p * np + q] += dot(cp, &jblk[q * cap..q * cap + used]);
+                    }
+                }
+                let first = 2 * m * b0;
+                for slot in 0..hits_here {
+                    let jtx_h = &mut jtx[slot * np * s..(slot + 1) * np * s];
+                    let r_seg = &rs[slot * rows + first..slot * rows + first + seg];
                     for p in 0..np {
-                        let (a, b) = (jre[p], jim[p]);
-                        let row_p = &mut jtj[p * np + p..(p + 1) * np];
-                        for ((acc, &c), &d) in row_p.iter_mut().zip(&jre[p..]).zip(&jim[p..]) {
-                            *acc += a * c + b * d;
+                        let jp = &jblk[p * cap + slot * seg..p * cap + (slot + 1) * seg];
+                        for q in 0..s {
+                            jtx_h[p * s + q] +=
+                                dot(jp, &xreal[q * rows + first..q * rows + first + seg]);
                         }
-                        let jx = &mut jtx_h[p * s..(p + 1) * s];
-                        for ((acc, &c), &d) in jx.iter_mut().zip(x_re).zip(x_im) {
-                            *acc += a * c + b * d;
-                        }
-                        jtr_h[p] += a * rr + b * ri;
+                        jtr[slot * np + p] += dot(jp, r_seg);
                     }
                 }
             }
