@@ -574,17 +574,17 @@ pub(crate) fn evaluate(
         // whitened residuals `0..=i`; real terms: the `s` transient components.
         let nc = r + if weight_derivative { m } else { 0 };
         let mut coef = vec![ZERO; nc];
-        let mut wre = vec![0.0; m * nc * np];
-        let mut wim = vec![0.0; m * nc * np];
-        let mut sre = vec![0.0; m * s * np];
-        let mut sim = vec![0.0; m * s * np];
+        // Per term, the real parts of the parameters' weights followed by the imaginary
+        // parts (`2 np` values).
+        let np2 = 2 * np;
+        let mut ww = vec![0.0; m * nc * np2];
+        let mut sw = vec![0.0; m * s * np2];
         // Jacobian rows of a block of bins, column-major (one column per parameter, rows
         // ordered by hit, bin, output, real and imaginary part), reduced by dot products
         // over whole columns when the block is full.
         let cap = hits_here * 2 * m * BLOCK_BINS.min(nb);
         let mut jblk = vec![0.0; np * cap];
-        let mut jre = vec![0.0; np];
-        let mut jim = vec![0.0; np];
+        let mut jri = vec![0.0; np2];
         for (bi, bin) in group.bins.iter().enumerate() {
             let res = slice(&cache.res, bi, s * s);
             let cr = slice(&cache.cr, bi, m * s);
@@ -711,8 +711,8 @@ pub(crate) fn evaluate(
             // whitened transient regressor, whose coefficients are the real `xi`.
             for i in 0..m {
                 for q2 in 0..s {
-                    let o = (i * s + q2) * np;
-                    let (outr, outi) = (&mut sre[o..o + np], &mut sim[o..o + np]);
+                    let o = (i * s + q2) * np2;
+                    let (outr, outi) = sw[o..o + np2].split_at_mut(np);
                     outr.fill(0.0);
                     outi.fill(0.0);
                     for q in 0..s {
@@ -736,12 +736,12 @@ pub(crate) fn evaluate(
             // (Cholesky derivative).
             for i in 0..m {
                 for t in 0..r {
-                    let base = (i * nc + t) * np;
+                    let base = (i * nc + t) * np2;
                     let o = (i * r + t) * np;
                     for p in 0..np {
                         let w = dg[o + p] * -sc;
-                        wre[base + p] = w.re;
-                        wim[base + p] = w.im;
+                        ww[base + p] = w.re;
+                        ww[base + np + p] = w.im;
                     }
                 }
             }
@@ -766,9 +766,9 @@ pub(crate) fn evaluate(
                                     + bw[i + li * m] * aw[j + li * m].conj();
                             }
                             let w = if i == j { sij * 0.5 } else { sij } * -sc;
-                            let base = (i * nc + r + j) * np;
-                            wre[base + p] = w.re;
-                            wim[base + p] = w.im;
+                            let base = (i * nc + r + j) * np2;
+                            ww[base + p] = w.re;
+                            ww[base + np + p] = w.im;
                         }
                     }
                 }
@@ -790,40 +790,30 @@ pub(crate) fn evaluate(
                 }
                 for i in 0..m {
                     // Transient terms (real coefficients) first, then the complex ones.
-                    jre.fill(0.0);
-                    jim.fill(0.0);
+                    jri.fill(0.0);
                     for (q, &xq) in xi_h.iter().enumerate() {
-                        let base = (i * s + q) * np;
-                        let (s_re, s_im) = (&sre[base..base + np], &sim[base..base + np]);
-                        for ((a, b), (&wr, &wi)) in jre
-                            .iter_mut()
-                            .zip(jim.iter_mut())
-                            .zip(s_re.iter().zip(s_im))
-                        {
-                            *a += wr * xq;
-                            *b += wi * xq;
+                        let base = (i * s + q) * np2;
+                        for (a, &w) in jri.iter_mut().zip(&sw[base..base + np2]) {
+                            *a += w * xq;
                         }
                     }
                     for (t, c) in coef[..complex_terms(i)].iter().enumerate() {
-                        let base = (i * nc + t) * np;
-                        complex_axpy(
-                            &mut jre,
-                            &mut jim,
-                            &wre[base..base + np],
-                            &wim[base..base + np],
-                            *c,
-                        );
+                        let base = (i * nc + t) * np2;
+                        let (w_re, w_im) = ww[base..base + np2].split_at(np);
+                        let (j_re, j_im) = jri.split_at_mut(np);
+                        complex_axpy(j_re, j_im, w_re, w_im, *c);
                     }
                     #[cfg(test)]
                     {
                         let ro = row(bi, m, i);
                         for p in 0..np {
-                            jts[slot][(ro, p)] = jre[p];
-                            jts[slot][(ro + 1, p)] = jim[p];
+                            jts[slot][(ro, p)] = jri[p];
+                            jts[slot][(ro + 1, p)] = jri[np + p];
                         }
                     }
                     let ro = slot * seg + (bi - b0) * 2 * m + 2 * i;
-                    for (p, (&a, &b)) in jre.iter().zip(&jim).enumerate() {
+                    let (j_re, j_im) = jri.split_at(np);
+                    for (p, (&a, &b)) in j_re.iter().zip(j_im).enumerate() {
                         jblk[p * cap + ro] = a;
                         jblk[p * cap + ro + 1] = b;
                     }
