@@ -242,25 +242,30 @@ pub(crate) fn eliminate_nuisance(
     (f, jt * r)
 }
 
-/// `a . b` with four partial sums (a fixed order: the result does not depend on threads).
+/// `a . b` with four partial sums in two pairs of adjacent lanes (a fixed order: the
+/// result does not depend on threads; the pairs map onto two-lane vector registers).
 #[inline]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
-    let mut acc = [0.0; 4];
+    let mut lo = [0.0; 2];
+    let mut hi = [0.0; 2];
     let (ac, bc) = (a.chunks_exact(4), b.chunks_exact(4));
     let (ar, br) = (ac.remainder(), bc.remainder());
     for (x, y) in ac.zip(bc) {
-        acc[0] += x[0] * y[0];
-        acc[1] += x[1] * y[1];
-        acc[2] += x[2] * y[2];
-        acc[3] += x[3] * y[3];
+        let ((x0, x1), (y0, y1)) = (x.split_at(2), y.split_at(2));
+        for k in 0..2 {
+            lo[k] += x0[k] * y0[k];
+        }
+        for k in 0..2 {
+            hi[k] += x1[k] * y1[k];
+        }
     }
     let mut tail = 0.0;
     for (x, y) in ar.iter().zip(br) {
         tail += x * y;
     }
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+    (lo[0] + hi[0]) + (lo[1] + hi[1]) + tail
 }
 
 /// `(re, im) += w c` elementwise, `w` given by its real and imaginary parts.
@@ -790,8 +795,11 @@ pub(crate) fn evaluate(
                 }
                 for i in 0..m {
                     // Transient terms (real coefficients) first, then the complex ones.
-                    jri.fill(0.0);
-                    for (q, &xq) in xi_h.iter().enumerate() {
+                    let base = i * s * np2;
+                    for (a, &w) in jri.iter_mut().zip(&sw[base..base + np2]) {
+                        *a = w * xi_h[0];
+                    }
+                    for (q, &xq) in xi_h.iter().enumerate().skip(1) {
                         let base = (i * s + q) * np2;
                         for (a, &w) in jri.iter_mut().zip(&sw[base..base + np2]) {
                             *a += w * xq;

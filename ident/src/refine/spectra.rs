@@ -283,24 +283,22 @@ impl Kernel {
 /// bins `0..=padded/2` of a DFT of length `padded`; `None` where it does not exist.
 fn frequency_response(model: &Model, padded: usize) -> Vec<Option<Vec<C64>>> {
     let (n, r) = (model.n, model.r);
+    let (k_n, m_n, d_n) = (
+        model.stiffness.as_slice(),
+        model.mass.as_slice(),
+        model.damping.as_slice(),
+    );
     let mut q = vec![C64::new(0.0, 0.0); n * n];
-    let mut qi = vec![C64::new(0.0, 0.0); n * n];
     (0..=padded / 2)
         .map(|k| {
             let omega = 2.0 * PI * k as f64 / (padded as f64 * model.dt);
-            for j in 0..n {
-                for i in 0..n {
-                    q[i + j * n] = C64::new(
-                        model.stiffness[(i, j)] - omega * omega * model.mass[(i, j)],
-                        omega * model.damping[(i, j)],
-                    );
-                }
+            for (((v, &kv), &mv), &dv) in q.iter_mut().zip(k_n).zip(m_n).zip(d_n) {
+                *v = C64::new(kv - omega * omega * mv, omega * dv);
             }
-            if !super::dense::invert(&mut q, n, &mut qi) {
+            let mut h = model.b2.as_slice().to_vec();
+            if !super::dense::solve(&mut q, n, &mut h, r) {
                 return None;
             }
-            let mut h = vec![C64::new(0.0, 0.0); n * r];
-            super::dense::mul(&qi, n, n, model.b2.as_slice(), r, &mut h);
             h.iter_mut().for_each(|v| *v *= -omega * omega);
             Some(h)
         })
