@@ -375,10 +375,12 @@ pub(crate) fn evaluate(
         let rows = 2 * nb * m;
         let hits_here = group.hits.len();
         let sc_of = |bin: &Bin| (bin.weight / group.len as f64).sqrt();
-        // The whitened, scaled transient regressors `X` (rows `row(bi, m, i)` and the next:
-        // real and imaginary parts of `xw[bi m s + i + q m]`, column `q`) do not depend on
-        // the hit: one copy per group, and one `X^T X`.
-        let mut xw = vec![ZERO; nb * m * s];
+        // The whitened, scaled transient regressors `X` do not depend on the hit: one copy
+        // per group, realified and column-major (`rows` x `s`, rows `row(bi, m, i)` and the
+        // next: real and imaginary parts, column `q`), and one `X^T X`. `X^T v` and
+        // `v - X sol` are dot products and axpys over whole columns.
+        let mut xreal = vec![0.0; rows * s];
+        let mut xb = vec![ZERO; m * s];
         // Whitened, scaled residuals, `rows` values per hit (slot).
         let mut rs = vec![0.0; hits_here * rows];
         let mut cache = Cache::new(&work, nb);
@@ -394,9 +396,15 @@ pub(crate) fn evaluate(
                 *v = c * bin.z;
             }
             dense::forward_solve(&work.l, m, &mut tx, s);
-            let xb = &mut xw[bi * m * s..(bi + 1) * m * s];
             for (x, t) in xb.iter_mut().zip(&tx) {
                 *x = t * sc;
+            }
+            for q in 0..s {
+                let col = &mut xreal[q * rows + 2 * bi * m..q * rows + 2 * (bi + 1) * m];
+                for (pair, x) in col.chunks_exact_mut(2).zip(&xb[q * m..(q + 1) * m]) {
+                    pair[0] = x.re;
+                    pair[1] = x.im;
+                }
             }
             for q2 in 0..s {
                 let b = &xb[q2 * m..(q2 + 1) * m];
@@ -439,18 +447,6 @@ pub(crate) fn evaluate(
             all.push(DMatrix::from_fn(m * r, nb, |idx, bi| {
                 cache.g[bi * m * r + idx].norm_sqr()
             }));
-        }
-        // The realified `X`, column-major (`rows` x `s`): `X^T v` and `v - X sol` are
-        // dot products and axpys over whole columns.
-        let mut xreal = vec![0.0; rows * s];
-        for (bi, xb) in xw.chunks_exact(m * s).enumerate() {
-            for q in 0..s {
-                let col = &mut xreal[q * rows + 2 * bi * m..q * rows + 2 * (bi + 1) * m];
-                for (pair, x) in col.chunks_exact_mut(2).zip(&xb[q * m..(q + 1) * m]) {
-                    pair[0] = x.re;
-                    pair[1] = x.im;
-                }
-            }
         }
         let xt_mul = |v: &[f64], out: &mut [f64]| {
             for (q, o) in out.iter_mut().enumerate() {
