@@ -92,6 +92,61 @@ pub(crate) fn invert(a: &mut [C64], n: usize, inv: &mut [C64]) -> bool {
     true
 }
 
+/// Solves `a x = b` in place for the n x n matrix `a` (destroyed) and `c` right-hand sides
+/// stored column-major in `b` (n x c), by Gaussian elimination with partial pivoting.
+/// Returns false if a pivot is zero or not finite.
+pub(crate) fn solve(a: &mut [C64], n: usize, b: &mut [C64], c: usize) -> bool {
+    debug_assert!(a.len() >= n * n && b.len() >= n * c);
+    for col in 0..n {
+        let mut piv = col;
+        let mut best = a[col + col * n].norm_sqr();
+        for row in col + 1..n {
+            let v = a[row + col * n].norm_sqr();
+            if v > best {
+                best = v;
+                piv = row;
+            }
+        }
+        if !(best > 0.0 && best.is_finite()) {
+            return false;
+        }
+        if piv != col {
+            for j in col..n {
+                a.swap(col + j * n, piv + j * n);
+            }
+            for j in 0..c {
+                b.swap(col + j * n, piv + j * n);
+            }
+        }
+        let d = C64::new(1.0, 0.0) / a[col + col * n];
+        for row in col + 1..n {
+            let f = a[row + col * n] * d;
+            if f == ZERO {
+                continue;
+            }
+            for j in col + 1..n {
+                let v = a[col + j * n];
+                a[row + j * n] -= f * v;
+            }
+            for j in 0..c {
+                let v = b[col + j * n];
+                b[row + j * n] -= f * v;
+            }
+        }
+    }
+    for j in 0..c {
+        let x = &mut b[j * n..(j + 1) * n];
+        for row in (0..n).rev() {
+            let mut v = x[row];
+            for k in row + 1..n {
+                v -= a[row + k * n] * x[k];
+            }
+            x[row] = v / a[row + row * n];
+        }
+    }
+    true
+}
+
 /// Lower Cholesky factor `l` of the Hermitian positive definite m x m matrix `a` (only its
 /// lower triangle is read). Returns false if a pivot is not positive.
 pub(crate) fn cholesky(a: &[C64], m: usize, l: &mut [C64]) -> bool {

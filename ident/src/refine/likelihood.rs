@@ -242,6 +242,32 @@ pub(crate) fn eliminate_nuisance(
     (f, jt * r)
 }
 
+/// `a . b` with four partial sums in two pairs of adjacent lanes (a fixed order: the
+/// result does not depend on threads; the pairs map onto two-lane vector registers).
+#[inline]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut lo = [0.0; 2];
+    let mut hi = [0.0; 2];
+    let (ac, bc) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ar, br) = (ac.remainder(), bc.remainder());
+    for (x, y) in ac.zip(bc) {
+        let ((x0, x1), (y0, y1)) = (x.split_at(2), y.split_at(2));
+        for k in 0..2 {
+            lo[k] += x0[k] * y0[k];
+        }
+        for k in 0..2 {
+            hi[k] += x1[k] * y1[k];
+        }
+    }
+    let mut tail = 0.0;
+    for (x, y) in ar.iter().zip(br) {
+        tail += x * y;
+    }
+    (lo[0] + hi[0]) + (lo[1] + hi[1]) + tail
+}
+
 /// `(re, im) += w c` elementwise, `w` given by its real and imaginary parts.
 #[inline]
 fn complex_axpy(re: &mut [f64], im: &mut [f64], w_re: &[f64], w_im: &[f64], c: C64) {
@@ -258,6 +284,9 @@ fn complex_axpy(re: &mut [f64], im: &mut [f64], w_re: &[f64], w_im: &[f64], c: C
 fn row(bi: usize, m: usize, i: usize) -> usize {
     2 * (bi * m + i)
 }
+
+/// Bins whose Jacobian rows are reduced together (bounds the memory of long records).
+const BLOCK_BINS: usize = 64;
 
 /// Per-bin model quantities of a group, kept between the passes.
 struct Cache {
@@ -344,14 +373,19 @@ pub(crate) fn evaluate(
     for group in &spectra.groups {
         let nb = group.bins.len();
         let rows = 2 * nb * m;
+        let hits_here = group.hits.len();
         let sc_of = |bin: &Bin| (bin.weight / group.len as f64).sqrt();
-        // The whitened, scaled transient regressors `X` (rows `row(bi, m, i)` and the next:
-        // real and imaginary parts of `xw[bi m s + i + q m]`, column `q`) do not depend on
-        // the hit: one copy per group, and one `X^T X`.
-        let mut xw = vec![ZERO; nb * m * s];
-        let mut rs: Vec<DVector<f64>> = group.hits.iter().map(|_| DVector::zeros(rows)).collect();
+        // The whitened, scaled transient regressors `X` do not depend on the hit: one copy
+        // per group, realified and column-major (`rows` x `s`, rows `row(bi, m, i)` and the
+        // next: real and imaginary parts, column `q`), and one `X^T X`. `X^T v` and
+        // `v - X sol` are dot products and axpys over whole columns.
+        let mut xreal = vec![0.0; rows * s];
+        let mut xb = vec![ZERO; m * s];
+        // Whitened, scaled residuals, `rows` values per hit (slot).
+        let mut rs = vec![0.0; hits_here * rows];
         let mut cache = Cache::new(&work, nb);
-        let mut xtx = DMatrix::<f64>::zeros(s, s);
+        // Upper triangle of `X^T X`, column-major.
+        let mut xtx_upper = vec![0.0; s * s];
 
         // Pass 1: residual without transient, transient regressors.
         for (bi, bin) in group.bins.iter().enumerate() {
@@ -362,76 +396,73 @@ pub(crate) fn evaluate(
                 *v = c * bin.z;
             }
             dense::forward_solve(&work.l, m, &mut tx, s);
-            let xb = &mut xw[bi * m * s..(bi + 1) * m * s];
             for (x, t) in xb.iter_mut().zip(&tx) {
                 *x = t * sc;
             }
-            for q2 in 0..s {
-                for q1 in 0..=q2 {
-                    let mut acc = 0.0;
-                    for i in 0..m {
-                        let (a, b) = (xb[i + q1 * m], xb[i + q2 * m]);
-                        acc += a.re * b.re + a.im * b.im;
-                    }
-                    xtx[(q1, q2)] += acc;
+            for q in 0..s {
+                let col = &mut xreal[q * rows + 2 * bi * m..q * rows + 2 * (bi + 1) * m];
+                for (pair, x) in col.chunks_exact_mut(2).zip(&xb[q * m..(q + 1) * m]) {
+                    pair[0] = x.re;
+                    pair[1] = x.im;
                 }
             }
+            for q2 in 0..s {
+                let b = &xb[q2 * m..(q2 + 1) * m];
+                for q1 in 0..=q2 {
+                    let a = &xb[q1 * m..(q1 + 1) * m];
+                    let mut acc = 0.0;
+                    for (a, b) in a.iter().zip(b) {
+                        acc += a.re * b.re + a.im * b.im;
+                    }
+                    xtx_upper[q1 + q2 * s] += acc;
+                }
+            }
+            let g = &work.g;
             for (slot, &h) in group.hits.iter().enumerate() {
-                let (y, u) = (&spectra.y[h], &spectra.u[h]);
+                let y = &spectra.y[h].as_slice()[bi * m..(bi + 1) * m];
+                let u = &spectra.u[h].as_slice()[bi * r..(bi + 1) * r];
                 for i in 0..m {
-                    let mut v = y[(i, bi)];
-                    for l in 0..r {
-                        v -= work.g[i + l * m] * u[(l, bi)];
+                    let mut v = y[i];
+                    for (l, &ul) in u.iter().enumerate() {
+                        v -= g[i + l * m] * ul;
                     }
                     e[i] = v;
                 }
                 dense::forward_solve(&work.l, m, &mut e, 1);
-                let rv = &mut rs[slot];
-                for i in 0..m {
-                    let ro = row(bi, m, i);
-                    rv[ro] = sc * e[i].re;
-                    rv[ro + 1] = sc * e[i].im;
+                let rv = &mut rs[slot * rows + 2 * bi * m..slot * rows + 2 * (bi + 1) * m];
+                for (pair, ei) in rv.chunks_exact_mut(2).zip(&e) {
+                    pair[0] = sc * ei.re;
+                    pair[1] = sc * ei.im;
                 }
             }
         }
-        for q2 in 0..s {
-            for q1 in 0..q2 {
-                xtx[(q2, q1)] = xtx[(q1, q2)];
+        let xtx = DMatrix::from_fn(s, s, |a, b| {
+            if a <= b {
+                xtx_upper[a + b * s]
+            } else {
+                xtx_upper[b + a * s]
             }
-        }
+        });
         if let Some(all) = gains.as_mut() {
             all.push(DMatrix::from_fn(m * r, nb, |idx, bi| {
                 cache.g[bi * m * r + idx].norm_sqr()
             }));
         }
-        // `X^T v` and `v - X sol` on the realified rows.
-        let xt_mul = |v: &DVector<f64>| -> DVector<f64> {
-            let mut out = DVector::zeros(s);
-            for bi in 0..nb {
-                let xb = &xw[bi * m * s..(bi + 1) * m * s];
-                for i in 0..m {
-                    let ro = row(bi, m, i);
-                    let (vr, vi) = (v[ro], v[ro + 1]);
-                    for q in 0..s {
-                        let x = xb[i + q * m];
-                        out[q] += x.re * vr + x.im * vi;
-                    }
+        let xt_mul = |v: &[f64], out: &mut [f64]| {
+            for (q, o) in out.iter_mut().enumerate() {
+                *o = dot(&xreal[q * rows..(q + 1) * rows], v);
+            }
+        };
+        let sub_x = |v: &mut [f64], sol: &[f64]| {
+            for (q, &sq) in sol.iter().enumerate() {
+                for (a, &x) in v.iter_mut().zip(&xreal[q * rows..(q + 1) * rows]) {
+                    *a -= x * sq;
                 }
             }
-            out
         };
-        let sub_x = |v: &mut DVector<f64>, sol: &DVector<f64>| {
-            for bi in 0..nb {
-                let xb = &xw[bi * m * s..(bi + 1) * m * s];
-                for i in 0..m {
-                    let ro = row(bi, m, i);
-                    let mut acc = ZERO;
-                    for q in 0..s {
-                        acc += xb[i + q * m] * sol[q];
-                    }
-                    v[ro] -= acc.re;
-                    v[ro + 1] -= acc.im;
-                }
+        let inv_mul = |inv: &DMatrix<f64>, v: &[f64], out: &mut [f64]| {
+            for (a, o) in out.iter_mut().enumerate() {
+                *o = (0..s).map(|b| inv[(a, b)] * v[b]).sum();
             }
         };
 
@@ -439,29 +470,33 @@ pub(crate) fn evaluate(
         let r0s = rs.clone();
         // Transients by least squares, projected residuals.
         let xtx_inv = spd_inverse(&xtx);
+        let mut xtv = vec![0.0; s];
+        let mut sol = vec![0.0; s];
+        let mut correction = vec![0.0; s];
         for (slot, &h) in group.hits.iter().enumerate() {
-            let mut sol = &xtx_inv * xt_mul(&rs[slot]);
-            sub_x(&mut rs[slot], &sol);
+            let rv = &mut rs[slot * rows..(slot + 1) * rows];
+            xt_mul(rv, &mut xtv);
+            inv_mul(&xtx_inv, &xtv, &mut sol);
+            sub_x(rv, &sol);
             // One step of iterative refinement: the normal equations square the condition
             // number, and the gradient J^T r is exact only for r orthogonal to X.
-            let correction = &xtx_inv * xt_mul(&rs[slot]);
-            sub_x(&mut rs[slot], &correction);
-            sol += correction;
-            cost += rs[slot].norm_squared();
-            xi[h] = sol;
+            xt_mul(rv, &mut xtv);
+            inv_mul(&xtx_inv, &xtv, &mut correction);
+            sub_x(rv, &correction);
+            for (a, c) in sol.iter_mut().zip(&correction) {
+                *a += c;
+            }
+            cost += rv.iter().map(|v| v * v).sum::<f64>();
+            xi[h] = DVector::from_column_slice(&sol);
         }
         if !cost.is_finite() {
             return Err(Singular);
         }
         #[cfg(test)]
         for (slot, &h) in group.hits.iter().enumerate() {
-            let x = DMatrix::from_fn(rows, s, |ro, q| {
-                let (bi, i) = (ro / 2 / m, ro / 2 % m);
-                let v = xw[bi * m * s + i + q * m];
-                if ro % 2 == 0 { v.re } else { v.im }
-            });
+            let x = DMatrix::from_column_slice(rows, s, &xreal);
             matrices[h] = HitMatrices {
-                r0: r0s[slot].clone(),
+                r0: DVector::from_column_slice(&r0s[slot * rows..(slot + 1) * rows]),
                 x,
                 j: None,
             };
@@ -469,6 +504,7 @@ pub(crate) fn evaluate(
 
         if let Some(res) = residuals.as_mut() {
             for (slot, &h) in group.hits.iter().enumerate() {
+                let rv = &rs[slot * rows..(slot + 1) * rows];
                 let mut out = DMatrix::zeros(m, nb);
                 for (bi, bin) in group.bins.iter().enumerate() {
                     let l = slice(&cache.l, bi, m * m);
@@ -477,7 +513,7 @@ pub(crate) fn evaluate(
                         let mut v = ZERO;
                         for k in 0..=i {
                             let ro = row(bi, m, k);
-                            v += l[i + k * m] * C64::new(rs[slot][ro], rs[slot][ro + 1]);
+                            v += l[i + k * m] * C64::new(rv[ro], rv[ro + 1]);
                         }
                         out[(i, bi)] = v / sc;
                     }
@@ -491,7 +527,33 @@ pub(crate) fn evaluate(
         let (Some(weight_derivative), Some(der)) = (jac, derivs) else {
             continue;
         };
-        let hits_here = group.hits.len();
+        // The model's derivatives are real; they are laid out with the parameter index
+        // innermost, so that the per-bin products below run over contiguous parameters.
+        let by_param = |rows: usize, cols: usize, get: &dyn Fn(usize, usize, usize) -> f64| {
+            let mut out = vec![0.0; rows * cols * np];
+            for a in 0..rows {
+                for b in 0..cols {
+                    for p in 0..np {
+                        out[(a * cols + b) * np + p] = get(p, a, b);
+                    }
+                }
+            }
+            out
+        };
+        let dc = by_param(m, s, &|p, i, q| der.c[p][(i, q)].re);
+        let dad = by_param(s, s, &|p, t, q| der.ad[p][(t, q)].re);
+        let (dd, dbd, basis) = match model.intersample {
+            Intersample::Zoh => (
+                by_param(m, r, &|p, i, l| der.d[p][(i, l)].re),
+                by_param(s, r, &|p, q, l| der.bd[p][(q, l)].re),
+                Vec::new(),
+            ),
+            Intersample::Bandlimited => (
+                Vec::new(),
+                Vec::new(),
+                by_param(n, n, &|p, j, k| params[p].basis[(j, k)]),
+            ),
+        };
         let mut jtx = vec![0.0; hits_here * np * s];
         let mut jtr = vec![0.0; hits_here * np];
         #[cfg(test)]
@@ -500,64 +562,191 @@ pub(crate) fn evaluate(
             .iter()
             .map(|_| DMatrix::zeros(rows, np))
             .collect();
-        let mut ma = vec![ZERO; np * m * s];
-        let mut dg = vec![ZERO; np * m * r];
-        let mut phi = vec![ZERO; np * m * m];
+        // Per bin, `[(a * cols + b) * np + p]`: `dC + C (z I - A_d)^-1 dA_d` (m x s, real and
+        // imaginary parts), `dG` (m x r) and, band-limited, `E_p G` (n x r).
+        let mut ma_re = vec![0.0; m * s * np];
+        let mut ma_im = vec![0.0; m * s * np];
+        let mut dg = vec![ZERO; m * r * np];
+        let mut eg = vec![ZERO; n * r * np];
+        let mut factor = vec![ZERO; np];
         let mut bw = vec![ZERO; m * r];
         let mut aw = vec![ZERO; m * r];
-        let mut eg = vec![ZERO; n * r];
-        let nt = r + s + m;
-        let mut coef = vec![ZERO; nt];
-        let mut wre = vec![0.0; m * nt * np];
-        let mut wim = vec![0.0; m * nt * np];
-        let mut xre = vec![0.0; m * s];
-        let mut xim = vec![0.0; m * s];
-        let mut jre = vec![0.0; np];
-        let mut jim = vec![0.0; np];
-        let bases: Vec<DMatrix<C64>> = params
-            .iter()
-            .map(|p| p.basis.map(|x| C64::new(x, 0.0)))
-            .collect();
+        // Complex terms of row `i`: the `r` inputs and, with the weight derivative, the
+        // whitened residuals `0..=i`; real terms: the `s` transient components.
+        let nc = r + if weight_derivative { m } else { 0 };
+        let mut coef = vec![ZERO; nc];
+        // Per term, the real parts of the parameters' weights followed by the imaginary
+        // parts (`2 np` values).
+        let np2 = 2 * np;
+        let mut ww = vec![0.0; m * nc * np2];
+        let mut sw = vec![0.0; m * s * np2];
+        // Jacobian rows of a block of bins, column-major (one column per parameter, rows
+        // ordered by hit, bin, output, real and imaginary part), reduced by dot products
+        // over whole columns when the block is full.
+        let cap = hits_here * 2 * m * BLOCK_BINS.min(nb);
+        let mut jblk = vec![0.0; np * cap];
+        let mut jri = vec![0.0; np2];
         for (bi, bin) in group.bins.iter().enumerate() {
             let res = slice(&cache.res, bi, s * s);
             let cr = slice(&cache.cr, bi, m * s);
             let g = slice(&cache.g, bi, m * r);
             let l = slice(&cache.l, bi, m * m);
-            let xb = &xw[bi * m * s..(bi + 1) * m * s];
             let sc = sc_of(bin);
-            for p in 0..np {
-                let ma_p = &mut ma[p * m * s..(p + 1) * m * s];
-                ma_p.copy_from_slice(der.c[p].as_slice());
-                dense::mul_add(cr, m, s, der.ad[p].as_slice(), s, ma_p);
-                let dg_p = &mut dg[p * m * r..(p + 1) * m * r];
-                match model.intersample {
-                    Intersample::Zoh => {
-                        dg_p.copy_from_slice(der.d[p].as_slice());
-                        dense::mul_add(ma_p, m, s, slice(&cache.rb, bi, s * r), r, dg_p);
-                        dense::mul_add(cr, m, s, der.bd[p].as_slice(), r, dg_p);
+            // dT/dtheta_p (z I - A_d)^-1 with T = C (z I - A_d)^-1 z: `dC + C R dA_d`.
+            for i in 0..m {
+                for q in 0..s {
+                    let o = (i * s + q) * np;
+                    let (are, aim) = (&mut ma_re[o..o + np], &mut ma_im[o..o + np]);
+                    are.copy_from_slice(&dc[o..o + np]);
+                    aim.fill(0.0);
+                    for t in 0..s {
+                        let c = cr[i + t * m];
+                        let d = &dad[(t * s + q) * np..(t * s + q + 1) * np];
+                        for p in 0..np {
+                            are[p] += c.re * d[p];
+                            aim[p] += c.im * d[p];
+                        }
                     }
-                    Intersample::Bandlimited => {
-                        // dG = -s^2 Q^-1 dQ Q^-1 B2 = -f Q^-1 E G, dQ = f E.
-                        let w = bin.omega;
-                        let f = match params[p].matrix {
+                }
+            }
+            match model.intersample {
+                Intersample::Zoh => {
+                    // dG = dD + (dC + C R dA_d) R B_d + C R dB_d.
+                    let rb = slice(&cache.rb, bi, s * r);
+                    for i in 0..m {
+                        for li in 0..r {
+                            let o = (i * r + li) * np;
+                            let out = &mut dg[o..o + np];
+                            for (v, &d) in out.iter_mut().zip(&dd[o..o + np]) {
+                                *v = C64::new(d, 0.0);
+                            }
+                            for q in 0..s {
+                                let b = rb[q + li * s];
+                                let c = cr[i + q * m];
+                                let a = (i * s + q) * np;
+                                let (are, aim) = (&ma_re[a..a + np], &ma_im[a..a + np]);
+                                let e = &dbd[(q * r + li) * np..(q * r + li + 1) * np];
+                                for p in 0..np {
+                                    out[p] += C64::new(are[p], aim[p]) * b + c * e[p];
+                                }
+                            }
+                        }
+                    }
+                }
+                Intersample::Bandlimited => {
+                    // dG = -s^2 Q^-1 dQ Q^-1 B2 = -f Q^-1 E G, dQ = f E.
+                    let w = bin.omega;
+                    for (f, p) in factor.iter_mut().zip(params) {
+                        *f = -match p.matrix {
                             MatrixKind::Mass => C64::new(-w * w, 0.0),
                             MatrixKind::Damping => C64::new(0.0, w),
                             MatrixKind::Stiffness => C64::new(1.0, 0.0),
                         };
-                        dense::mul(bases[p].as_slice(), n, n, g, r, &mut eg);
-                        dense::mul(slice(&cache.qi, bi, n * n), n, n, &eg, r, dg_p);
-                        for x in dg_p.iter_mut() {
-                            *x *= -f;
+                    }
+                    for j in 0..n {
+                        for li in 0..r {
+                            let out = &mut eg[(j * r + li) * np..(j * r + li + 1) * np];
+                            out.fill(ZERO);
+                            for k in 0..n {
+                                let gk = g[k + li * m];
+                                let e = &basis[(j * n + k) * np..(j * n + k + 1) * np];
+                                for p in 0..np {
+                                    out[p] += gk * e[p];
+                                }
+                            }
+                        }
+                    }
+                    let qi = slice(&cache.qi, bi, n * n);
+                    for i in 0..n {
+                        for li in 0..r {
+                            let o = (i * r + li) * np;
+                            let out = &mut dg[o..o + np];
+                            out.fill(ZERO);
+                            for j in 0..n {
+                                let qij = qi[i + j * n];
+                                let e = &eg[(j * r + li) * np..(j * r + li + 1) * np];
+                                for p in 0..np {
+                                    out[p] += qij * e[p];
+                                }
+                            }
+                            for (v, f) in out.iter_mut().zip(&factor) {
+                                *v *= f;
+                            }
                         }
                     }
                 }
-                // Whitened once per bin, shared by the hits.
-                dense::forward_solve(l, m, ma_p, s);
-                dense::forward_solve(l, m, dg_p, r);
+            }
+            // Whitened once per bin, shared by the hits: forward substitution with `L`
+            // (real diagonal) on the output index.
+            for i in 0..m {
+                for k in 0..i {
+                    let lik = l[i + k * m];
+                    for q in 0..s {
+                        let (oi, ok) = ((i * s + q) * np, (k * s + q) * np);
+                        for p in 0..np {
+                            let (kr, ki) = (ma_re[ok + p], ma_im[ok + p]);
+                            ma_re[oi + p] -= lik.re * kr - lik.im * ki;
+                            ma_im[oi + p] -= lik.re * ki + lik.im * kr;
+                        }
+                    }
+                    for li in 0..r {
+                        let (oi, ok) = ((i * r + li) * np, (k * r + li) * np);
+                        for p in 0..np {
+                            let v = dg[ok + p];
+                            dg[oi + p] -= lik * v;
+                        }
+                    }
+                }
+                let d = l[i + i * m].re;
+                for v in &mut ma_re[i * s * np..(i + 1) * s * np] {
+                    *v /= d;
+                }
+                for v in &mut ma_im[i * s * np..(i + 1) * s * np] {
+                    *v /= d;
+                }
+                for v in &mut dg[i * r * np..(i + 1) * r * np] {
+                    *v /= d;
+                }
+            }
+            // Transient terms: `-sc L^-1 (dC + C R dA_d) R z`, the derivative of the
+            // whitened transient regressor, whose coefficients are the real `xi`.
+            for i in 0..m {
+                for q2 in 0..s {
+                    let o = (i * s + q2) * np2;
+                    let (outr, outi) = sw[o..o + np2].split_at_mut(np);
+                    outr.fill(0.0);
+                    outi.fill(0.0);
+                    for q in 0..s {
+                        let rzq = res[q + q2 * s] * bin.z;
+                        let a = (i * s + q) * np;
+                        let (are, aim) = (&ma_re[a..a + np], &ma_im[a..a + np]);
+                        for p in 0..np {
+                            outr[p] += are[p] * rzq.re - aim[p] * rzq.im;
+                            outi[p] += are[p] * rzq.im + aim[p] * rzq.re;
+                        }
+                    }
+                    for (vr, vi) in outr.iter_mut().zip(outi.iter_mut()) {
+                        *vr *= -sc;
+                        *vi *= -sc;
+                    }
+                }
+            }
+            // Complex terms: the input DFTs (`dG`) and, with the weight derivative, the
+            // whitened residuals (`Phi`): L^-1 dC L^-H = a b^H + b a^H with
+            // b = L^-1 G Su^1/2, a = L^-1 dG Su^1/2; d(L^-1) e = -Phi(L^-1 dC L^-H) L^-1 e
+            // (Cholesky derivative).
+            for i in 0..m {
+                for t in 0..r {
+                    let base = (i * nc + t) * np2;
+                    let o = (i * r + t) * np;
+                    for p in 0..np {
+                        let w = dg[o + p] * -sc;
+                        ww[base + p] = w.re;
+                        ww[base + np + p] = w.im;
+                    }
+                }
             }
             if weight_derivative {
-                // L^-1 dC L^-H = a b^H + b a^H with b = L^-1 G Su^1/2, a = L^-1 dG Su^1/2;
-                // d(L^-1) e = -Phi(L^-1 dC L^-H) L^-1 e (Cholesky derivative).
                 for li in 0..r {
                     for i in 0..m {
                         bw[i + li * m] = g[i + li * m] * noise.inputs[li];
@@ -567,10 +756,9 @@ pub(crate) fn evaluate(
                 for p in 0..np {
                     for li in 0..r {
                         for i in 0..m {
-                            aw[i + li * m] = dg[p * m * r + i + li * m] * noise.inputs[li];
+                            aw[i + li * m] = dg[(i * r + li) * np + p] * noise.inputs[li];
                         }
                     }
-                    let ph = &mut phi[p * m * m..(p + 1) * m * m];
                     for j in 0..m {
                         for i in j..m {
                             let mut sij = ZERO;
@@ -578,91 +766,83 @@ pub(crate) fn evaluate(
                                 sij += aw[i + li * m] * bw[j + li * m].conj()
                                     + bw[i + li * m] * aw[j + li * m].conj();
                             }
-                            ph[i + j * m] = if i == j { sij * 0.5 } else { sij };
+                            let w = if i == j { sij * 0.5 } else { sij } * -sc;
+                            let base = (i * nc + r + j) * np2;
+                            ww[base + p] = w.re;
+                            ww[base + np + p] = w.im;
                         }
                     }
                 }
             }
-            // Row `i` of a hit's Jacobian is `-sum_t W_it c_t` over the terms `t`: the
-            // input DFTs (`dG`), the transient's state response (`dA_d`, `dC`) and, with the
-            // weight derivative, the whitened residuals (`Phi`). `W` (scaled by `-sc`) is
-            // stored split into real and imaginary parts with the parameter index
-            // innermost, so that the per-hit sums run over contiguous parameters.
-            let terms_of = |i: usize| r + s + if weight_derivative { i + 1 } else { 0 };
-            for i in 0..m {
-                for t in 0..terms_of(i) {
-                    let base = (i * nt + t) * np;
-                    for p in 0..np {
-                        let w = if t < r {
-                            dg[p * m * r + i + t * m]
-                        } else if t < r + s {
-                            ma[p * m * s + i + (t - r) * m]
-                        } else {
-                            phi[p * m * m + i + (t - r - s) * m]
-                        } * -sc;
-                        wre[base + p] = w.re;
-                        wim[base + p] = w.im;
-                    }
-                }
-                for q in 0..s {
-                    xre[i * s + q] = xb[i + q * m].re;
-                    xim[i * s + q] = xb[i + q * m].im;
-                }
-            }
+            let complex_terms = |i: usize| r + if weight_derivative { i + 1 } else { 0 };
+            // Rows of this bin in the block: hit `slot`, output `i`, real and imaginary.
+            let b0 = bi - bi % BLOCK_BINS;
+            let nbb = BLOCK_BINS.min(nb - b0);
+            let seg = 2 * m * nbb;
             for (slot, &h) in group.hits.iter().enumerate() {
-                let u = &spectra.u[h];
-                let xi_h = &xi[h];
-                let rv = &rs[slot];
-                for li in 0..r {
-                    coef[li] = u[(li, bi)];
-                }
-                for i in 0..s {
-                    let mut acc = ZERO;
-                    for q in 0..s {
-                        acc += res[i + q * s] * xi_h[q];
-                    }
-                    coef[r + i] = acc * bin.z;
-                }
+                let u = &spectra.u[h].as_slice()[bi * r..(bi + 1) * r];
+                let xi_h = xi[h].as_slice();
+                let rv = &rs[slot * rows + 2 * bi * m..slot * rows + 2 * (bi + 1) * m];
+                coef[..r].copy_from_slice(u);
                 if weight_derivative {
                     for i in 0..m {
-                        let ro = row(bi, m, i);
-                        coef[r + s + i] = C64::new(rv[ro], rv[ro + 1]) / sc;
+                        coef[r + i] = C64::new(rv[2 * i], rv[2 * i + 1]) / sc;
                     }
                 }
-                let jtx_h = &mut jtx[slot * np * s..(slot + 1) * np * s];
-                let jtr_h = &mut jtr[slot * np..(slot + 1) * np];
                 for i in 0..m {
-                    let ro = row(bi, m, i);
-                    jre.fill(0.0);
-                    jim.fill(0.0);
-                    for (t, c) in coef[..terms_of(i)].iter().enumerate() {
-                        let base = (i * nt + t) * np;
-                        complex_axpy(
-                            &mut jre,
-                            &mut jim,
-                            &wre[base..base + np],
-                            &wim[base..base + np],
-                            *c,
-                        );
+                    // Transient terms (real coefficients) first, then the complex ones.
+                    let base = i * s * np2;
+                    for (a, &w) in jri.iter_mut().zip(&sw[base..base + np2]) {
+                        *a = w * xi_h[0];
+                    }
+                    for (q, &xq) in xi_h.iter().enumerate().skip(1) {
+                        let base = (i * s + q) * np2;
+                        for (a, &w) in jri.iter_mut().zip(&sw[base..base + np2]) {
+                            *a += w * xq;
+                        }
+                    }
+                    for (t, c) in coef[..complex_terms(i)].iter().enumerate() {
+                        let base = (i * nc + t) * np2;
+                        let (w_re, w_im) = ww[base..base + np2].split_at(np);
+                        let (j_re, j_im) = jri.split_at_mut(np);
+                        complex_axpy(j_re, j_im, w_re, w_im, *c);
                     }
                     #[cfg(test)]
-                    for p in 0..np {
-                        jts[slot][(ro, p)] = jre[p];
-                        jts[slot][(ro + 1, p)] = jim[p];
+                    {
+                        let ro = row(bi, m, i);
+                        for p in 0..np {
+                            jts[slot][(ro, p)] = jri[p];
+                            jts[slot][(ro + 1, p)] = jri[np + p];
+                        }
                     }
-                    let (rr, ri) = (rv[ro], rv[ro + 1]);
-                    let (x_re, x_im) = (&xre[i * s..(i + 1) * s], &xim[i * s..(i + 1) * s]);
+                    let ro = slot * seg + (bi - b0) * 2 * m + 2 * i;
+                    let (j_re, j_im) = jri.split_at(np);
+                    for (p, (&a, &b)) in j_re.iter().zip(j_im).enumerate() {
+                        jblk[p * cap + ro] = a;
+                        jblk[p * cap + ro + 1] = b;
+                    }
+                }
+            }
+            if bi + 1 == b0 + nbb {
+                // Block full: `J^T J` over all its rows, `J^T X` and `J^T r` per hit.
+                let used = hits_here * seg;
+                for p in 0..np {
+                    let cp = &jblk[p * cap..p * cap + used];
+                    for q in p..np {
+                        jtj[p * np + q] += dot(cp, &jblk[q * cap..q * cap + used]);
+                    }
+                }
+                let first = 2 * m * b0;
+                for slot in 0..hits_here {
+                    let jtx_h = &mut jtx[slot * np * s..(slot + 1) * np * s];
+                    let r_seg = &rs[slot * rows + first..slot * rows + first + seg];
                     for p in 0..np {
-                        let (a, b) = (jre[p], jim[p]);
-                        let row_p = &mut jtj[p * np + p..(p + 1) * np];
-                        for ((acc, &c), &d) in row_p.iter_mut().zip(&jre[p..]).zip(&jim[p..]) {
-                            *acc += a * c + b * d;
+                        let jp = &jblk[p * cap + slot * seg..p * cap + (slot + 1) * seg];
+                        for q in 0..s {
+                            jtx_h[p * s + q] +=
+                                dot(jp, &xreal[q * rows + first..q * rows + first + seg]);
                         }
-                        let jx = &mut jtx_h[p * s..(p + 1) * s];
-                        for ((acc, &c), &d) in jx.iter_mut().zip(x_re).zip(x_im) {
-                            *acc += a * c + b * d;
-                        }
-                        jtr_h[p] += a * rr + b * ri;
+                        jtr[slot * np + p] += dot(jp, r_seg);
                     }
                 }
             }
@@ -829,14 +1009,37 @@ pub(crate) fn estimate_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit)
         dof_factor,
         ..
     } = *fit;
-    // Observations: (channel, |G_i.|^2, q).
-    let mut obs: Vec<(usize, usize, usize, f64)> = Vec::new(); // (channel, group, bin, q)
+    // Observations `q = |e_ik|^2 / N`. The regressor and the IRLS weight of an observation
+    // depend only on its (channel, group, bin), not on the hit: the hits' `q` are summed
+    // per cell once, so each iteration costs one pass over the cells instead of over every
+    // observation (the same normal equations, summed in another order).
+    struct Cell {
+        channel: usize,
+        group: usize,
+        bin: usize,
+        count: f64,
+        q_sum: f64,
+    }
+    let mut cells: Vec<Cell> = Vec::new();
     for (gi, group) in spectra.groups.iter().enumerate() {
+        let nb = group.bins.len();
+        let first = cells.len();
+        for bi in 0..nb {
+            for i in 0..m {
+                cells.push(Cell {
+                    channel: i,
+                    group: gi,
+                    bin: bi,
+                    count: group.hits.len() as f64,
+                    q_sum: 0.0,
+                });
+            }
+        }
         for &h in &group.hits {
             let res = &residuals[h];
-            for bi in 0..group.bins.len() {
+            for bi in 0..nb {
                 for i in 0..m {
-                    obs.push((i, gi, bi, res[(i, bi)].norm_sqr() / group.len as f64));
+                    cells[first + bi * m + i].q_sum += res[(i, bi)].norm_sqr() / group.len as f64;
                 }
             }
         }
@@ -853,31 +1056,32 @@ pub(crate) fn estimate_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit)
     };
     // Start: output noise only, channel means.
     let mut theta = vec![0.0; unknowns];
-    let mut counts = vec![0usize; m];
-    for &(i, _, _, q) in &obs {
-        theta[i] += q;
-        counts[i] += 1;
+    let mut counts = vec![0.0; m];
+    for cell in &cells {
+        theta[cell.channel] += cell.q_sum;
+        counts[cell.channel] += cell.count;
     }
     for i in 0..m {
-        theta[i] /= counts[i].max(1) as f64;
+        theta[i] /= counts[i].max(1.0);
     }
     let mut x = vec![0.0; unknowns];
     let mut active = vec![true; unknowns];
     for _ in 0..30 {
         let mut ata = DMatrix::<f64>::zeros(unknowns, unknowns);
         let mut atb = DVector::<f64>::zeros(unknowns);
-        for &(i, gi, bi, q) in &obs {
-            regressor(i, gi, bi, &mut x);
+        for cell in &cells {
+            regressor(cell.channel, cell.group, cell.bin, &mut x);
             let v: f64 = x.iter().zip(&theta).map(|(a, b)| a * b).sum();
             let w = 1.0 / (v * v).max(f64::MIN_POSITIVE);
+            let (wq, wn) = (w * cell.q_sum, w * cell.count);
             for a in 0..unknowns {
                 if !active[a] || x[a] == 0.0 {
                     continue;
                 }
-                atb[a] += w * x[a] * q;
+                atb[a] += wq * x[a];
                 for b in 0..unknowns {
                     if active[b] {
-                        ata[(a, b)] += w * x[a] * x[b];
+                        ata[(a, b)] += wn * x[a] * x[b];
                     }
                 }
             }

@@ -130,7 +130,8 @@ impl Spectra {
 /// Noise-free outputs of `model` for each input record (r x N, the structure at rest
 /// before the record): exact discrete simulation for held inputs; for band-limited inputs,
 /// the product of the input's DFT with `H(j omega)` on a zero-padded grid long enough for
-/// the response to decay (the band-limited convolution of the record with the structure).
+/// the response to decay (the band-limited convolution of the record with the structure),
+/// evaluated as the convolution with the impulse response's lags.
 pub(crate) fn noise_free_outputs(model: &Model, inputs: &[DMatrix<f64>]) -> Vec<DMatrix<f64>> {
     let n = model.n;
     match model.intersample {
@@ -165,23 +166,25 @@ pub(crate) fn noise_free_outputs(model: &Model, inputs: &[DMatrix<f64>]) -> Vec<
             };
             let r = model.r;
             let mut planner = FftPlanner::new();
-            // H(j omega) per padded length, shared by the records of that length.
-            let mut frfs: BTreeMap<usize, Vec<Option<Vec<C64>>>> = BTreeMap::new();
+            // The response is `y_t = sum_tau g[(t - tau) mod P] u_tau` with `g` the inverse
+            // DFT of `H` on the padded grid of length `P` (the band-limited impulse response,
+            // aliased with period `P`, where it has decayed). Only the lags `-(len - 1)` to
+            // `len - 1` enter, so `g` is computed once per padded length and the records are
+            // convolved with those lags on a grid of `Q >= 2 len` points: the same sums as
+            // multiplying each record's padded DFT by `H`, far fewer and shorter transforms.
+            let mut kernels: BTreeMap<usize, Kernel> = BTreeMap::new();
             let mut out = Vec::with_capacity(inputs.len());
             for u in inputs {
                 let len = u.ncols();
-                let padded = (2 * len)
-                    .saturating_add(decay)
-                    .min(1 << 22)
-                    .next_power_of_two();
-                let frf = frfs
-                    .entry(padded)
-                    .or_insert_with(|| frequency_response(model, padded));
-                let fwd = planner.plan_fft_forward(padded);
-                let inv = planner.plan_fft_inverse(padded);
+                let kernel = kernels
+                    .entry(len)
+                    .or_insert_with(|| Kernel::new(model, &mut planner, len, decay));
+                let q = kernel.q;
+                let fwd = planner.plan_fft_forward(q);
+                let inv = planner.plan_fft_inverse(q);
                 let mut uspec = Vec::with_capacity(r);
                 for l in 0..r {
-                    let mut buf = vec![C64::new(0.0, 0.0); padded];
+                    let mut buf = vec![C64::new(0.0, 0.0); q];
                     for t in 0..len {
                         buf[t] = C64::new(u[(l, t)], 0.0);
                     }
@@ -189,27 +192,18 @@ pub(crate) fn noise_free_outputs(model: &Model, inputs: &[DMatrix<f64>]) -> Vec<
                     uspec.push(buf);
                 }
                 let mut y = DMatrix::zeros(n, len);
-                let mut spec = vec![C64::new(0.0, 0.0); padded];
+                let mut spec = vec![C64::new(0.0, 0.0); q];
                 for i in 0..n {
                     spec.fill(C64::new(0.0, 0.0));
-                    for (k, h) in frf.iter().enumerate() {
-                        let Some(h) = h else { continue };
-                        let mut v = C64::new(0.0, 0.0);
-                        for l in 0..r {
-                            v += h[i + l * n] * uspec[l][k];
-                        }
-                        if 2 * k == padded {
-                            // The band-limited response is real at Nyquist.
-                            v = C64::new(v.re, 0.0);
-                        }
-                        spec[k] = v;
-                        if k > 0 && 2 * k < padded {
-                            spec[padded - k] = v.conj();
+                    for l in 0..r {
+                        let g = &kernel.spectra[i + l * n];
+                        for ((v, &a), &b) in spec.iter_mut().zip(g).zip(&uspec[l]) {
+                            *v += a * b;
                         }
                     }
                     inv.process(&mut spec);
                     for t in 0..len {
-                        y[(i, t)] = spec[t].re / padded as f64;
+                        y[(i, t)] = spec[t].re / q as f64;
                     }
                 }
                 out.push(y);
@@ -219,28 +213,92 @@ pub(crate) fn noise_free_outputs(model: &Model, inputs: &[DMatrix<f64>]) -> Vec<
     }
 }
 
+/// The band-limited impulse response of every output-input pair for records of one length,
+/// on a convolution grid: its lags `-(len - 1)..len` placed circularly on `q` points and
+/// transformed.
+struct Kernel {
+    /// Convolution grid (a power of two, at least `2 len`).
+    q: usize,
+    /// Per pair `i + l n`, the DFT of the lags on the grid.
+    spectra: Vec<Vec<C64>>,
+}
+
+impl Kernel {
+    fn new(model: &Model, planner: &mut FftPlanner<f64>, len: usize, decay: usize) -> Self {
+        let (n, r) = (model.n, model.r);
+        let padded = (2 * len)
+            .saturating_add(decay)
+            .min(1 << 22)
+            .next_power_of_two();
+        let frf = frequency_response(model, padded);
+        let inv = planner.plan_fft_inverse(padded);
+        let q = (2 * len).next_power_of_two();
+        let fwd = planner.plan_fft_forward(q);
+        let mut spec = vec![C64::new(0.0, 0.0); padded];
+        let mut spectra = Vec::with_capacity(n * r);
+        for l in 0..r {
+            for i in 0..n {
+                spec.fill(C64::new(0.0, 0.0));
+                for (k, h) in frf.iter().enumerate() {
+                    let Some(h) = h else { continue };
+                    let mut v = h[i + l * n];
+                    if 2 * k == padded {
+                        // The band-limited response is real at Nyquist.
+                        v = C64::new(v.re, 0.0);
+                    }
+                    spec[k] = v;
+                    if k > 0 && 2 * k < padded {
+                        spec[padded - k] = v.conj();
+                    }
+                }
+                inv.process(&mut spec);
+                // Lag `j` of the aliased response is entry `j mod padded`.
+                let lag = |j: usize| C64::new(spec[j % padded].re / padded as f64, 0.0);
+                let mut lags = vec![C64::new(0.0, 0.0); q];
+                for j in 0..len {
+                    lags[j] = lag(j);
+                }
+                for j in 1..len {
+                    lags[q - j] = lag(padded - j % padded);
+                }
+                fwd.process(&mut lags);
+                spectra.push(lags);
+            }
+        }
+        // Pair index `i + l n` (outputs fastest).
+        let mut ordered = vec![Vec::new(); n * r];
+        for l in 0..r {
+            for i in 0..n {
+                ordered[i + l * n] = std::mem::take(&mut spectra[l * n + i]);
+            }
+        }
+        Self {
+            q,
+            spectra: ordered,
+        }
+    }
+}
+
 /// `H(j omega_k) = -omega^2 (K - omega^2 M + j omega R)^-1 B2` (n x r, column-major) for the
 /// bins `0..=padded/2` of a DFT of length `padded`; `None` where it does not exist.
 fn frequency_response(model: &Model, padded: usize) -> Vec<Option<Vec<C64>>> {
     let (n, r) = (model.n, model.r);
+    let (k_n, m_n, d_n) = (
+        model.stiffness.as_slice(),
+        model.mass.as_slice(),
+        model.damping.as_slice(),
+    );
     let mut q = vec![C64::new(0.0, 0.0); n * n];
-    let mut qi = vec![C64::new(0.0, 0.0); n * n];
     (0..=padded / 2)
         .map(|k| {
             let omega = 2.0 * PI * k as f64 / (padded as f64 * model.dt);
-            for j in 0..n {
-                for i in 0..n {
-                    q[i + j * n] = C64::new(
-                        model.stiffness[(i, j)] - omega * omega * model.mass[(i, j)],
-                        omega * model.damping[(i, j)],
-                    );
-                }
+            for (((v, &kv), &mv), &dv) in q.iter_mut().zip(k_n).zip(m_n).zip(d_n) {
+                *v = C64::new(kv - omega * omega * mv, omega * dv);
             }
-            if !super::dense::invert(&mut q, n, &mut qi) {
+            let mut h = model.b2.as_slice().to_vec();
+            if !super::dense::solve(&mut q, n, &mut h, r) {
                 return None;
             }
-            let mut h = vec![C64::new(0.0, 0.0); n * r];
-            super::dense::mul(&qi, n, n, model.b2.as_slice(), r, &mut h);
             h.iter_mut().for_each(|v| *v *= -omega * omega);
             Some(h)
         })
