@@ -139,11 +139,12 @@ impl Moments {
         let skip = layout.skip;
         assert!(len > p + q + skip, "OKID moments: record too short");
         let n_eq = len - q;
+        let (ins, outs) = (rec.inputs.as_slice(), rec.outputs.as_slice());
         let x = |ch: usize, k: usize| -> f64 {
             if ch < r {
-                rec.inputs[(ch, k)]
+                ins[ch + r * k]
             } else {
-                rec.outputs[(ch - r, k)]
+                outs[ch - r + m * k]
             }
         };
         // Largest lag difference d = l1 - l2 >= 0 needed for channels (a, b): the largest
@@ -161,9 +162,11 @@ impl Moments {
             let k1 = (k0 + BLOCK).min(len);
             let end = (k1 + margin).min(len);
             for (ch, buf) in bufs.iter_mut().enumerate() {
-                for (j, v) in buf.iter_mut().enumerate() {
-                    *v = if k0 + j < end { x(ch, k0 + j) } else { 0.0 };
+                let (filled, rest) = buf.split_at_mut(end - k0);
+                for (j, v) in filled.iter_mut().enumerate() {
+                    *v = x(ch, k0 + j);
                 }
+                rest.fill(0.0);
             }
             let n = k1 - k0;
             for a in 0..nch {
@@ -181,9 +184,47 @@ impl Moments {
             }
             k0 = k1;
         }
+        // The regression leaves out, of the full correlation sum_k x_a[k] x_b[k + d], the
+        // first few and the last few products (see below): partial sums of those products
+        // from the record's start (`head`) and back from its end (`tail`), for every
+        // channel pair and lag difference -dmax ..= dmax, so that each Gram entry costs
+        // two look-ups.
+        let lags = 2 * dmax + 1;
+        let head_max = skip + q;
+        let tail_max = p + q;
+        let mut head = vec![0.0; nch * nch * lags * (head_max + 1)];
+        let mut tail = vec![0.0; nch * nch * lags * (tail_max + 1)];
+        let (len_i, n_eq_i) = (len as isize, n_eq as isize);
+        for a in 0..nch {
+            for b in 0..nch {
+                for di in 0..lags {
+                    let d = di as isize - dmax as isize;
+                    let slot = (a * nch + b) * lags + di;
+                    let full_lo = 0.max(-d);
+                    let full_hi = (len_i - 1).min(len_i - 1 - d);
+                    let h = &mut head[slot * (head_max + 1)..(slot + 1) * (head_max + 1)];
+                    let mut sum = 0.0;
+                    for t in 0..head_max {
+                        let k = full_lo + t as isize;
+                        if k <= full_hi {
+                            sum += x(a, k as usize) * x(b, (k + d) as usize);
+                        }
+                        h[t + 1] = sum;
+                    }
+                    let tl = &mut tail[slot * (tail_max + 1)..(slot + 1) * (tail_max + 1)];
+                    let mut sum = 0.0;
+                    for t in 0..tail_max {
+                        let k = full_hi - t as isize;
+                        if k >= full_lo {
+                            sum += x(a, k as usize) * x(b, (k + d) as usize);
+                        }
+                        tl[t + 1] = sum;
+                    }
+                }
+            }
+        }
         let w = layout.columns(p) + m;
         let cols: Vec<(usize, isize)> = (0..w).map(|j| column(layout, j)).collect();
-        let (len_i, n_eq_i) = (len as isize, n_eq as isize);
         let mut gram = DMatrix::zeros(w, w);
         for i in 0..w {
             let (a, l1) = cols[i];
@@ -203,13 +244,12 @@ impl Moments {
                 let lo = full_lo.max(skip as isize - l1);
                 let full_hi = (len_i - 1).min(len_i - 1 - d);
                 let hi = n_eq_i - 1 - l1;
-                let mut outside = 0.0;
-                for k in full_lo..lo {
-                    outside += x(a, k as usize) * x(b, (k + d) as usize);
-                }
-                for k in hi + 1..=full_hi {
-                    outside += x(a, k as usize) * x(b, (k + d) as usize);
-                }
+                let slot = (a * nch + b) * lags + (d + dmax as isize) as usize;
+                let head_len = (lo - full_lo) as usize;
+                let tail_len = (full_hi - hi).max(0) as usize;
+                debug_assert!(head_len <= head_max && tail_len <= tail_max);
+                let outside =
+                    head[slot * (head_max + 1) + head_len] + tail[slot * (tail_max + 1) + tail_len];
                 let v = full - outside;
                 gram[(i, j)] = v;
                 gram[(j, i)] = v;
