@@ -275,12 +275,18 @@ impl EraParams {
         let shape = self.shape(m, r, markov.len())?;
         let hankel = |k: usize| -> DMatrix<f64> {
             let (alpha, beta) = (shape.block_rows, shape.block_cols);
-            let mut h = DMatrix::zeros(alpha * m, beta * r);
-            for i in 0..alpha {
-                for j in 0..beta {
+            let rows = alpha * m;
+            let mut h = DMatrix::zeros(rows, beta * r);
+            let data = h.as_mut_slice();
+            for j in 0..beta {
+                for i in 0..alpha {
                     let y = &markov[shape.offset + 1 + k + i + j];
                     assert_eq!(y.shape(), (m, r), "Markov parameters must all be m x r");
-                    h.view_mut((i * m, j * r), (m, r)).copy_from(y);
+                    let y = y.as_slice();
+                    for l in 0..r {
+                        let start = (j * r + l) * rows + i * m;
+                        data[start..start + m].copy_from_slice(&y[l * m..(l + 1) * m]);
+                    }
                 }
             }
             h
@@ -291,11 +297,16 @@ impl EraParams {
             let corr = correlations(markov, &shape);
             let block = |k: usize| -> DMatrix<f64> {
                 let s = corr[0].nrows();
-                let mut out = DMatrix::zeros((xi + 1) * s, (zeta + 1) * s);
-                for i in 0..=xi {
-                    for j in 0..=zeta {
-                        out.view_mut((i * s, j * s), (s, s))
-                            .copy_from(&corr[k + i + j]);
+                let rows = (xi + 1) * s;
+                let mut out = DMatrix::zeros(rows, (zeta + 1) * s);
+                let data = out.as_mut_slice();
+                for j in 0..=zeta {
+                    for i in 0..=xi {
+                        let src = corr[k + i + j].as_slice();
+                        for col in 0..s {
+                            let start = (j * s + col) * rows + i * s;
+                            data[start..start + s].copy_from_slice(&src[col * s..(col + 1) * s]);
+                        }
                     }
                 }
                 out

@@ -373,16 +373,35 @@ struct Householder {
 }
 
 impl Householder {
-    fn new(mut a: DMatrix<f64>) -> Self {
+    fn new(a: DMatrix<f64>) -> Self {
+        Self::reduce(a, None)
+    }
+
+    /// With `stop_below = Some(t)`: stops before step `k` once every remaining column
+    /// (rows `k..`) has a norm of at most `t`; then only `k` reflectors are formed
+    /// ([`Householder::steps`]) and the unreduced block, whose norm is at most
+    /// `sqrt(cols - k) t`, is dropped.
+    fn reduce(mut a: DMatrix<f64>, stop_below: Option<f64>) -> Self {
         let (rows, cols) = a.shape();
         debug_assert!(rows >= cols);
         let mut betas = vec![0.0; cols];
         let mut diag = vec![0.0; cols];
+        let mut steps = cols;
         let data = a.as_mut_slice();
         for k in 0..cols {
             let (head, tail) = data.split_at_mut((k + 1) * rows);
             let v = &mut head[k * rows + k..];
             let norm = dot(v, v).sqrt();
+            if let Some(t) = stop_below
+                && norm <= t
+                && (k + 1..cols).all(|j| {
+                    let col = &tail[(j - k - 1) * rows + k..(j - k) * rows];
+                    dot(col, col).sqrt() <= t
+                })
+            {
+                steps = k;
+                break;
+            }
             let alpha = v[0];
             let s = if alpha >= 0.0 { -norm } else { norm };
             diag[k] = s;
@@ -404,28 +423,36 @@ impl Householder {
                 }
             }
         }
+        betas.truncate(steps);
+        diag.truncate(steps);
         Self { a, betas, diag }
     }
 
-    /// `R^T` (cols x cols, lower triangular).
+    /// Reflectors formed (rows of `R` kept).
+    fn steps(&self) -> usize {
+        self.betas.len()
+    }
+
+    /// `R^T` (cols x steps, lower trapezoidal).
     fn r_transpose(&self) -> DMatrix<f64> {
         let cols = self.a.ncols();
-        DMatrix::from_fn(cols, cols, |i, j| match i.cmp(&j) {
+        DMatrix::from_fn(cols, self.steps(), |i, j| match i.cmp(&j) {
             std::cmp::Ordering::Greater => self.a[(j, i)],
             std::cmp::Ordering::Equal => self.diag[i],
             std::cmp::Ordering::Less => 0.0,
         })
     }
 
-    /// `Q [x; 0]` for `x` with cols rows (rows x x.ncols()).
+    /// `Q [x; 0]` for `x` with [`Householder::steps`] rows (rows x x.ncols()).
     fn q_times(&self, x: &DMatrix<f64>) -> DMatrix<f64> {
-        let (rows, cols) = self.a.shape();
-        let k = x.ncols();
+        let rows = self.a.nrows();
+        let (steps, k) = x.shape();
+        debug_assert_eq!(steps, self.steps());
         let mut out = DMatrix::zeros(rows, k);
-        out.view_mut((0, 0), (cols, k)).copy_from(x);
+        out.view_mut((0, 0), (steps, k)).copy_from(x);
         let vs = self.a.as_slice();
         let od = out.as_mut_slice();
-        for c in (0..cols).rev() {
+        for c in (0..steps).rev() {
             let beta = self.betas[c];
             if beta == 0.0 {
                 continue;
@@ -502,7 +529,22 @@ pub fn right_svd(m: &DMatrix<f64>) -> Result<RightSvd, LinalgError> {
             form: RightForm::Direct(svd.v),
         });
     }
-    let q = Householder::new(m.transpose());
+    // Columns of M^T left below eps ||M||_F after the reflections so far are round-off
+    // (the rank of a Hankel matrix of a finite-order system is its order): the block
+    // dropped has a norm of at most eps sqrt(rows) ||M||_F <= eps rows s_1, below the
+    // rank tolerance eps max(rows, cols) s_1 of its users; the singular values kept move
+    // by its square over themselves, and those dropped are reported as zero.
+    let q = Householder::reduce(m.transpose(), Some(f64::EPSILON * m.norm()));
+    if q.steps() == 0 {
+        return Ok(RightSvd {
+            s: DVector::zeros(rows),
+            shape: (rows, cols),
+            form: RightForm::Reflected {
+                q,
+                w: DMatrix::zeros(0, 0),
+            },
+        });
+    }
     let rt = q.r_transpose();
     let svd = SVD::try_new(
         rt,
@@ -517,8 +559,12 @@ pub fn right_svd(m: &DMatrix<f64>) -> Result<RightSvd, LinalgError> {
         cols,
     })?;
     let w = svd.v_t.expect("V requested").transpose();
+    let mut values = DVector::zeros(rows);
+    values
+        .rows_mut(0, svd.singular_values.len())
+        .copy_from(&svd.singular_values);
     Ok(RightSvd {
-        s: svd.singular_values,
+        s: values,
         shape: (rows, cols),
         form: RightForm::Reflected { q, w },
     })
