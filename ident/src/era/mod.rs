@@ -278,6 +278,18 @@ impl EraParams {
             let rows = alpha * m;
             let mut h = DMatrix::zeros(rows, beta * r);
             let data = h.as_mut_slice();
+            if r == 1 && markov.iter().all(|y| y.shape() == (m, 1)) {
+                // One input: every column is `alpha` consecutive Markov parameters.
+                let first = shape.offset + 1 + k;
+                let flat: Vec<f64> = markov[first..first + alpha + beta - 1]
+                    .iter()
+                    .flat_map(|y| y.iter().copied())
+                    .collect();
+                for (j, col) in data.chunks_exact_mut(rows).enumerate() {
+                    col.copy_from_slice(&flat[j * m..j * m + rows]);
+                }
+                return h;
+            }
             for j in 0..beta {
                 for i in 0..alpha {
                     let y = &markov[shape.offset + 1 + k + i + j];
@@ -503,7 +515,9 @@ fn compress(
         return Ok(None);
     }
     let (ql, _) = linalg::thin_qr(&basis_cols);
-    let t = ql.tr_mul(big0);
+    // An explicit transpose: the product then goes through the blocked matrix
+    // multiplication (`tr_mul` forms one dot product per entry, several times slower).
+    let t = ql.transpose() * big0;
     let norm = big0.norm();
     let mut residual = big0.clone();
     residual.gemm(-1.0, &ql, &t, 1.0);
