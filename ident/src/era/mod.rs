@@ -310,18 +310,18 @@ impl EraParams {
             let block = |k: usize| -> DMatrix<f64> {
                 let s = corr[0].nrows();
                 let rows = (xi + 1) * s;
-                let mut out = DMatrix::zeros(rows, (zeta + 1) * s);
-                let data = out.as_mut_slice();
+                // Column by column, without zeroing first.
+                let mut data = Vec::with_capacity(rows * (zeta + 1) * s);
                 for j in 0..=zeta {
-                    for i in 0..=xi {
-                        let src = corr[k + i + j].as_slice();
-                        for col in 0..s {
-                            let start = (j * s + col) * rows + i * s;
-                            data[start..start + s].copy_from_slice(&src[col * s..(col + 1) * s]);
+                    for col in 0..s {
+                        for i in 0..=xi {
+                            data.extend_from_slice(
+                                &corr[k + i + j].as_slice()[col * s..(col + 1) * s],
+                            );
                         }
                     }
                 }
-                out
+                DMatrix::from_vec(rows, (zeta + 1) * s, data)
             };
             let big0 = block(0);
             let h0_svd = linalg::right_svd(&h0)?;
@@ -521,7 +521,8 @@ fn compress(
     let norm = big0.norm();
     let mut residual = big0.clone();
     residual.gemm(-1.0, &ql, &t, 1.0);
-    if !(residual.norm() <= COMPRESSION_TOLERANCE * norm) {
+    let residual_norm = residual.norm();
+    if residual_norm.is_nan() || residual_norm > COMPRESSION_TOLERANCE * norm {
         return Ok(None);
     }
     let small = linalg::thin_svd(&t)?;
