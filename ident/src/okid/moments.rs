@@ -278,8 +278,9 @@ impl Moments {
         let lags = 2 * dmax + 1;
         let head_max = skip + q;
         let tail_max = p + q;
-        let mut head = vec![0.0; nch * nch * lags * (head_max + 1)];
-        let mut tail = vec![0.0; nch * nch * lags * (tail_max + 1)];
+        // Filled slot by slot in order (no zeroing first).
+        let mut head = Vec::with_capacity(nch * nch * lags * (head_max + 1));
+        let mut tail = Vec::with_capacity(nch * nch * lags * (tail_max + 1));
         // The first and last samples those sums reach, per channel, zero outside the record.
         let span_head = 2 * dmax + head_max + 1;
         let span_tail = 2 * dmax + tail_max + 1;
@@ -309,21 +310,23 @@ impl Moments {
                     // Head: k = full_lo + t with full_lo = max(0, -d).
                     let lo = 0.max(-d) as usize;
                     let (ha, hb) = (&first[a][lo..], &first[b][(lo as isize + d) as usize..]);
-                    let h = &mut head[slot * (head_max + 1)..(slot + 1) * (head_max + 1)];
+                    debug_assert_eq!(head.len(), slot * (head_max + 1));
                     let mut sum = 0.0;
+                    head.push(sum);
                     for t in 0..head_max {
                         sum += ha[t] * hb[t];
-                        h[t + 1] = sum;
+                        head.push(sum);
                     }
                     // Tail: k = full_hi - t with full_hi = len - 1 - max(0, d).
                     let ia = span_tail - 1 - 0.max(d) as usize;
                     let ib = (ia as isize + d) as usize;
                     let (ta, tb) = (&last[a], &last[b]);
-                    let tl = &mut tail[slot * (tail_max + 1)..(slot + 1) * (tail_max + 1)];
+                    debug_assert_eq!(tail.len(), slot * (tail_max + 1));
                     let mut sum = 0.0;
+                    tail.push(sum);
                     for t in 0..tail_max {
                         sum += ta[ia - t] * tb[ib - t];
-                        tl[t + 1] = sum;
+                        tail.push(sum);
                     }
                 }
             }
