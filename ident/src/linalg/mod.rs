@@ -533,7 +533,9 @@ pub fn right_svd(m: &DMatrix<f64>) -> Result<RightSvd, LinalgError> {
     // (the rank of a Hankel matrix of a finite-order system is its order): the block
     // dropped has a norm of at most eps sqrt(rows) ||M||_F <= eps rows s_1, below the
     // rank tolerance eps max(rows, cols) s_1 of its users; the singular values kept move
-    // by its square over themselves, and those dropped are reported as zero.
+    // by its square over themselves, and those dropped are reported as zero. (ERA/DC of
+    // paper case 1: the 80 x 240 H(0) stops after 40 = p m reflectors; the full SVD put
+    // the 40 values dropped at 2e-15 and below, of a largest 92.)
     let q = Householder::reduce(m.transpose(), Some(f64::EPSILON * m.norm()));
     if q.steps() == 0 {
         return Ok(RightSvd {
