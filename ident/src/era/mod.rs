@@ -275,12 +275,30 @@ impl EraParams {
         let shape = self.shape(m, r, markov.len())?;
         let hankel = |k: usize| -> DMatrix<f64> {
             let (alpha, beta) = (shape.block_rows, shape.block_cols);
-            let mut h = DMatrix::zeros(alpha * m, beta * r);
-            for i in 0..alpha {
-                for j in 0..beta {
+            let rows = alpha * m;
+            let mut h = DMatrix::zeros(rows, beta * r);
+            let data = h.as_mut_slice();
+            if r == 1 && markov.iter().all(|y| y.shape() == (m, 1)) {
+                // One input: every column is `alpha` consecutive Markov parameters.
+                let first = shape.offset + 1 + k;
+                let flat: Vec<f64> = markov[first..first + alpha + beta - 1]
+                    .iter()
+                    .flat_map(|y| y.iter().copied())
+                    .collect();
+                for (j, col) in data.chunks_exact_mut(rows).enumerate() {
+                    col.copy_from_slice(&flat[j * m..j * m + rows]);
+                }
+                return h;
+            }
+            for j in 0..beta {
+                for i in 0..alpha {
                     let y = &markov[shape.offset + 1 + k + i + j];
                     assert_eq!(y.shape(), (m, r), "Markov parameters must all be m x r");
-                    h.view_mut((i * m, j * r), (m, r)).copy_from(y);
+                    let y = y.as_slice();
+                    for l in 0..r {
+                        let start = (j * r + l) * rows + i * m;
+                        data[start..start + m].copy_from_slice(&y[l * m..(l + 1) * m]);
+                    }
                 }
             }
             h
@@ -291,28 +309,36 @@ impl EraParams {
             let corr = correlations(markov, &shape);
             let block = |k: usize| -> DMatrix<f64> {
                 let s = corr[0].nrows();
-                let mut out = DMatrix::zeros((xi + 1) * s, (zeta + 1) * s);
-                for i in 0..=xi {
-                    for j in 0..=zeta {
-                        out.view_mut((i * s, j * s), (s, s))
-                            .copy_from(&corr[k + i + j]);
+                let rows = (xi + 1) * s;
+                // Column by column, without zeroing first.
+                let mut data = Vec::with_capacity(rows * (zeta + 1) * s);
+                for j in 0..=zeta {
+                    for col in 0..s {
+                        for i in 0..=xi {
+                            data.extend_from_slice(
+                                &corr[k + i + j].as_slice()[col * s..(col + 1) * s],
+                            );
+                        }
                     }
                 }
-                out
+                DMatrix::from_vec(rows, (zeta + 1) * s, data)
             };
             let big0 = block(0);
-            let h0_svd = linalg::thin_svd(&h0)?;
+            let h0_svd = linalg::right_svd(&h0)?;
             let stacked_v = |v: &DMatrix<f64>| -> DMatrix<f64> {
                 let rows = h0.nrows();
                 let mut out = DMatrix::zeros((xi + 1) * rows, v.ncols());
                 for i in 0..=xi {
-                    let hv = if i == 0 { &h0 * v } else { hankel(i) * v };
-                    out.view_mut((i * rows, 0), (rows, v.ncols()))
-                        .copy_from(&hv);
+                    let mut view = out.view_mut((i * rows, 0), (rows, v.ncols()));
+                    if i == 0 {
+                        view.gemm(1.0, &h0, v, 0.0);
+                    } else {
+                        view.gemm(1.0, &hankel(i), v, 0.0);
+                    }
                 }
                 out
             };
-            let factored = match compressed_svd(&corr, stacked_v, &h0_svd, zeta, &big0)? {
+            let factored = match compressed_svd_of(stacked_v, &h0_svd, &big0)? {
                 Some(svd) => svd,
                 None => linalg::thin_svd(&big0)?,
             };
@@ -360,17 +386,36 @@ impl EraParams {
 /// `a - b` costs one sum of `beta` products and two products per further block (instead of
 /// a product of `alpha m x beta r` matrices per `k`).
 fn correlations(markov: &[DMatrix<f64>], shape: &HankelShape) -> Vec<DMatrix<f64>> {
-    let (m, _) = markov[0].shape();
+    let (m, r) = markov[0].shape();
     let (alpha, beta) = (shape.block_rows, shape.block_cols);
     let shifts = shape.xi + shape.zeta + 1;
     let c = shape.offset + 1;
     let size = alpha * m;
     let mut corr = vec![DMatrix::zeros(size, size); shifts + 1];
-    let outer = |a: &DMatrix<f64>, b: &DMatrix<f64>, acc: &mut DMatrix<f64>, sign: f64| {
-        acc.gemm(sign, a, &b.transpose(), 1.0);
-    };
-    // a - b = d for a = c + k + i (k + i in 0 ..= alpha - 1 + shifts) and b = c + l.
+    // The Markov parameters used, contiguous (m x r each, column-major).
     let rows_a = alpha + shifts;
+    let used = rows_a + beta - 1;
+    let mr = m * r;
+    let mut flat = Vec::with_capacity(used * mr);
+    for y in &markov[c..c + used] {
+        assert_eq!(y.shape(), (m, r), "Markov parameters must all be m x r");
+        flat.extend_from_slice(y.as_slice());
+    }
+    let y = |k: usize| &flat[k * mr..(k + 1) * mr];
+    // acc += sign Y_a Y_b^T (m x m, column-major).
+    let outer = |ya: &[f64], yb: &[f64], acc: &mut [f64], sign: f64| {
+        for o2 in 0..m {
+            for o1 in 0..m {
+                let mut sum = 0.0;
+                for l in 0..r {
+                    sum += ya[o1 + m * l] * yb[o2 + m * l];
+                }
+                acc[o1 + m * o2] += sign * sum;
+            }
+        }
+    };
+    let mut acc = vec![0.0; m * m];
+    // a - b = d for a = c + k + i (k + i in 0 ..= alpha - 1 + shifts) and b = c + l.
     for d in -(alpha as isize - 1)..rows_a as isize {
         // First pair on the diagonal.
         let (mut ia, mut ib) = if d >= 0 {
@@ -378,28 +423,27 @@ fn correlations(markov: &[DMatrix<f64>], shape: &HankelShape) -> Vec<DMatrix<f64
         } else {
             (0, (-d) as usize)
         };
-        let mut acc = DMatrix::<f64>::zeros(m, m);
+        acc.fill(0.0);
         for j in 0..beta {
-            outer(&markov[c + ia + j], &markov[c + ib + j], &mut acc, 1.0);
+            outer(y(ia + j), y(ib + j), &mut acc, 1.0);
         }
         loop {
             // S(c + ia, c + ib) goes to every R(k) block (i, l) with k + i = ia, l = ib.
             for k in 0..=shifts.min(ia) {
                 let i = ia - k;
                 if i < alpha {
-                    corr[k].view_mut((i * m, ib * m), (m, m)).copy_from(&acc);
+                    let data = corr[k].as_mut_slice();
+                    for o2 in 0..m {
+                        let start = (ib * m + o2) * size + i * m;
+                        data[start..start + m].copy_from_slice(&acc[o2 * m..(o2 + 1) * m]);
+                    }
                 }
             }
             if ia + 1 >= rows_a || ib + 1 >= alpha {
                 break;
             }
-            outer(
-                &markov[c + ia + beta],
-                &markov[c + ib + beta],
-                &mut acc,
-                1.0,
-            );
-            outer(&markov[c + ia], &markov[c + ib], &mut acc, -1.0);
+            outer(y(ia + beta), y(ib + beta), &mut acc, 1.0);
+            outer(y(ia), y(ib), &mut acc, -1.0);
             ia += 1;
             ib += 1;
         }
@@ -408,66 +452,87 @@ fn correlations(markov: &[DMatrix<f64>], shape: &HankelShape) -> Vec<DMatrix<f64
 }
 
 /// Largest relative residual (Frobenius) of the correlation Hankel matrix outside the
-/// spaces spanned by its first block column and first block row for which
-/// [`compressed_svd`] is used: the Markov parameters of a finite-order system (those of an
-/// OKID observer) leave round-off there (1e-15); anything else takes the full SVD.
+/// space spanned by its columns for which [`compressed_svd`] is used: the Markov
+/// parameters of a finite-order system (those of an OKID observer) leave round-off there
+/// (1e-15); anything else takes the full SVD.
 const COMPRESSION_TOLERANCE: f64 = 1e-12;
 
-/// SVD of the correlation Hankel matrix `big0` in the spaces that contain it.
+/// SVD of the correlation Hankel matrix `big0` in the space that contains its columns.
 ///
 /// For Markov parameters of a system of order `N` (`N` = numerical rank of `H(0)`, at most
 /// `alpha m`), `H(k) = O A^k G` and `big0 = [H(i + j) H(0)^T]` has rank `N`. Its columns lie
 /// in the span of `[H(0); ...; H(xi)] V_N` (`V_N` the leading right singular vectors of
 /// `H(0)`; unlike the first block column of `big0`, whose weak directions are squared, this
-/// keeps every direction of `O` at the scale of the Hankel singular values) and its rows in
-/// that of its first block row. With orthonormal bases `Q_L` (`N` columns) and `Q_R`,
-/// `big0 = Q_L (Q_L^T big0 Q_R) Q_R^T`, and the SVD of the small core gives that of `big0`
-/// (singular values past `N` are zero). `None` if the residuals outside those spaces exceed
-/// [`COMPRESSION_TOLERANCE`] (then the caller factors `big0` itself).
-fn compressed_svd(
-    corr: &[DMatrix<f64>],
+/// keeps every direction of `O` at the scale of the Hankel singular values). With an
+/// orthonormal basis `Q_L` (`N` columns) of that span, `big0 = Q_L T` with the short
+/// `T = Q_L^T big0` (`N` rows), and the SVD `T = U S V^T` gives that of `big0`,
+/// `(Q_L U) S V^T` (singular values past `N` are zero). `None` if the residual outside that
+/// span exceeds [`COMPRESSION_TOLERANCE`] (then the caller factors `big0` itself).
+fn compressed_svd_of(
     stacked_v: impl Fn(&DMatrix<f64>) -> DMatrix<f64>,
-    h0_svd: &ThinSvd,
-    zeta: usize,
+    h0_svd: &linalg::RightSvd,
     big0: &DMatrix<f64>,
 ) -> Result<Option<ThinSvd>, EraError> {
-    let s = corr[0].nrows();
+    let (rows, cols) = h0_svd.shape();
+    let tol = f64::EPSILON * rows.max(cols) as f64;
+    let rank = h0_svd.rank(tol);
+    compress(stacked_v, rank, &|k| h0_svd.v_columns(k), big0)
+}
+
+/// [`compressed_svd_of`] from a full thin SVD of `H(0)` (the correlations `corr` and the
+/// block columns `zeta` of `big0` are no longer needed: the row space comes from `T`).
+#[cfg(test)]
+fn compressed_svd(
+    _corr: &[DMatrix<f64>],
+    stacked_v: impl Fn(&DMatrix<f64>) -> DMatrix<f64>,
+    h0_svd: &ThinSvd,
+    _zeta: usize,
+    big0: &DMatrix<f64>,
+) -> Result<Option<ThinSvd>, EraError> {
     let tol = f64::EPSILON * h0_svd.u.nrows().max(h0_svd.v.nrows()) as f64;
     let rank = h0_svd.rank(tol);
+    compress(
+        stacked_v,
+        rank,
+        &|k| h0_svd.v.columns(0, k).into_owned(),
+        big0,
+    )
+}
+
+/// The work of [`compressed_svd_of`] given the rank of `H(0)` and its leading right
+/// singular vectors.
+fn compress(
+    stacked_v: impl Fn(&DMatrix<f64>) -> DMatrix<f64>,
+    rank: usize,
+    v_columns: &dyn Fn(usize) -> DMatrix<f64>,
+    big0: &DMatrix<f64>,
+) -> Result<Option<ThinSvd>, EraError> {
     if rank == 0 {
         return Ok(None);
     }
-    let basis_cols = stacked_v(&h0_svd.v.columns(0, rank).into_owned());
-    let mut row0t = DMatrix::zeros((zeta + 1) * s, s);
-    for j in 0..=zeta {
-        row0t
-            .view_mut((j * s, 0), (s, s))
-            .copy_from(&corr[j].transpose());
-    }
-    if linalg::first_non_finite(&basis_cols).is_some() || linalg::first_non_finite(&row0t).is_some()
-    {
+    let basis_cols = stacked_v(&v_columns(rank));
+    if linalg::first_non_finite(&basis_cols).is_some() {
         return Ok(None);
     }
     let (ql, _) = linalg::thin_qr(&basis_cols);
-    let (qr, _) = linalg::thin_qr(&row0t);
-    let t = ql.tr_mul(big0);
+    // An explicit transpose: the product then goes through the blocked matrix
+    // multiplication (`tr_mul` forms one dot product per entry, several times slower).
+    let t = ql.transpose() * big0;
     let norm = big0.norm();
-    let col_residual = (big0 - &ql * &t).norm();
-    let core = &t * &qr;
-    let row_residual = (&t - &core * qr.transpose()).norm();
-    if !(col_residual <= COMPRESSION_TOLERANCE * norm
-        && row_residual <= COMPRESSION_TOLERANCE * norm)
-    {
+    let mut residual = big0.clone();
+    residual.gemm(-1.0, &ql, &t, 1.0);
+    let residual_norm = residual.norm();
+    if residual_norm.is_nan() || residual_norm > COMPRESSION_TOLERANCE * norm {
         return Ok(None);
     }
-    let small = linalg::thin_svd(&core)?;
+    let small = linalg::thin_svd(&t)?;
     let full = big0.nrows().min(big0.ncols());
     let mut values = DVector::zeros(full);
     values.rows_mut(0, small.s.len()).copy_from(&small.s);
     Ok(Some(ThinSvd {
         u: ql * small.u,
         s: values,
-        v: qr * small.v,
+        v: small.v,
     }))
 }
 

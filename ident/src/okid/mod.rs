@@ -333,6 +333,36 @@ impl OkidParams {
         let c = layout.columns(p);
         let gxx = gram.view((0, 0), (c, c)).into_owned();
         let gxy = gram.view((0, ncols), (c, m)).into_owned();
+        let layout_p = Layout { p, ..*layout };
+        // Well-conditioned normal equations (the usual case with noisy records): every
+        // eigenvalue is provably above the truncation floor, so the truncated solution
+        // below is the plain one, by Cholesky.
+        if let Some(theta) = well_conditioned_solve(&gxx, &gxy, self.rcond * self.rcond) {
+            let coeffs = layout_p.coefficients(&theta, &scales);
+            let radius = linalg::spectral_radius(&companion(&coeffs.b, m))?;
+            if radius < 1.0 && radius.is_finite() {
+                let fit_ss = y_ss - 2.0 * theta.dot(&gxy) + theta.dot(&(&gxx * &theta));
+                let relative_residual = (fit_ss.max(0.0) / y_ss).sqrt();
+                if relative_residual < NORMAL_RESIDUAL_LIMIT {
+                    return Ok(None);
+                }
+                return Ok(Some(self.finish(
+                    coeffs,
+                    FitInfo {
+                        p,
+                        rcond: self.rcond,
+                        raises: Vec::new(),
+                        rank: c,
+                        unknowns: c,
+                        equations: moments.equations,
+                        spectral_radius: radius,
+                        bic,
+                        relative_residual,
+                    },
+                )));
+            }
+            // An unstable observer: the eigen route below raises rcond.
+        }
         let eig = SymmetricEigen::new(gxx.clone());
         let lambda_max = eig.eigenvalues.max();
         let lambda_min = eig.eigenvalues.min();
@@ -340,7 +370,7 @@ impl OkidParams {
             return Ok(None);
         }
         let vty = eig.eigenvectors.transpose() * &gxy;
-        let layout = Layout { p, ..*layout };
+        let layout = layout_p;
         let mut rcond = self.rcond;
         let mut raises = Vec::new();
         loop {
@@ -518,6 +548,42 @@ impl OkidParams {
     }
 }
 
+/// `gxx^-1 gxy` by Cholesky if `gxx` is provably conditioned well enough that the
+/// truncated eigen-solution with relative floor `floor` (eigenvalues at most
+/// `floor * lambda_max` dropped) and [`NORMAL_CONDITION_LIMIT`] keep everything; `None`
+/// otherwise (then the caller decides by the eigenvalues themselves). The proof uses
+/// bounds, not estimates: `lambda_max <= min(||G||_F, ||G||_inf)` and
+/// `lambda_min >= 1 / ||G^-1||_F >= 1 / ||L^-1||_F^2` (`G = L L^T`), loose by at most the
+/// dimension each, so a Gram matrix within that factor of the limits takes the eigen route.
+fn well_conditioned_solve(
+    gxx: &DMatrix<f64>,
+    gxy: &DMatrix<f64>,
+    floor: f64,
+) -> Option<DMatrix<f64>> {
+    let n = gxx.nrows();
+    let chol = nalgebra::Cholesky::new(gxx.clone())?;
+    let lambda_max_bound = gxx.norm().min(
+        (0..n)
+            .map(|i| gxx.row(i).iter().map(|x| x.abs()).sum::<f64>())
+            .fold(0.0, f64::max),
+    );
+    let l_inv = chol
+        .l_dirty()
+        .solve_lower_triangular(&DMatrix::identity(n, n))?;
+    let mut l_inv_ss = 0.0;
+    for j in 0..n {
+        for i in j..n {
+            l_inv_ss += l_inv[(i, j)] * l_inv[(i, j)];
+        }
+    }
+    let lambda_min_bound = 1.0 / l_inv_ss;
+    let limit = floor.max(NORMAL_CONDITION_LIMIT);
+    if !(lambda_min_bound.is_finite() && lambda_min_bound > limit * lambda_max_bound) {
+        return None;
+    }
+    Some(chol.solve(gxy))
+}
+
 /// System Markov parameters from observer coefficients: `g[k] = a_k + sum_i b_i g[k-i]`
 /// for `k = -leads ..`, `g` zero before `-leads`.
 ///
@@ -534,24 +600,42 @@ pub fn system_markov(
         .expect("system_markov: no input coefficients")
         .shape();
     let total = leads + count;
-    let mut g: Vec<DMatrix<f64>> = Vec::with_capacity(total);
+    let (mr, mm) = (m * r, m * m);
+    // g[idx] (m x r, column-major) at flat[idx * mr ..], idx = k + leads.
+    let mut flat = vec![0.0; total * mr];
     for idx in 0..total {
-        // idx = k + leads
-        let mut acc = input_coefficients
-            .get(idx)
-            .cloned()
-            .unwrap_or_else(|| DMatrix::zeros(m, r));
+        let (done, rest) = flat.split_at_mut(idx * mr);
+        let acc = &mut rest[..mr];
+        if let Some(a) = input_coefficients.get(idx) {
+            acc.copy_from_slice(a.as_slice());
+        }
         for (i, b) in output_coefficients.iter().enumerate() {
             let lag = i + 1;
-            if idx >= lag {
-                acc += b * &g[idx - lag];
+            if idx < lag {
+                break;
             }
+            let (b, g) = (b.as_slice(), &done[(idx - lag) * mr..(idx - lag + 1) * mr]);
+            debug_assert_eq!(b.len(), mm);
+            mul_add(acc, b, g, m, r);
         }
-        g.push(acc);
     }
-    let lead_markov = (1..=leads).map(|j| g[leads - j].clone()).collect();
-    let markov = g.split_off(leads);
+    let at = |idx: usize| DMatrix::from_column_slice(m, r, &flat[idx * mr..(idx + 1) * mr]);
+    let lead_markov = (1..=leads).map(|j| at(leads - j)).collect();
+    let markov = (leads..total).map(at).collect();
     (lead_markov, markov)
+}
+
+/// `acc += b g` for `b` m x m and `g`, `acc` m x cols (column-major slices).
+fn mul_add(acc: &mut [f64], b: &[f64], g: &[f64], m: usize, cols: usize) {
+    for c in 0..cols {
+        for o in 0..m {
+            let mut sum = 0.0;
+            for l in 0..m {
+                sum += b[o + m * l] * g[l + m * c];
+            }
+            acc[o + m * c] += sum;
+        }
+    }
 }
 
 /// Observer-gain Markov parameters `h_k = C A^(k-1) G`, `k = 1 ..= count`, from the output
@@ -563,20 +647,26 @@ pub fn observer_gain_markov(
     let Some(m) = output_coefficients.first().map(|b| b.nrows()) else {
         return Vec::new();
     };
-    let mut h: Vec<DMatrix<f64>> = Vec::with_capacity(count);
+    let mm = m * m;
+    // h_k (m x m, column-major) at flat[(k - 1) * mm ..].
+    let mut flat = vec![0.0; count * mm];
     for k in 1..=count {
-        let mut acc = match output_coefficients.get(k - 1) {
-            Some(b) => -b,
-            None => DMatrix::zeros(m, m),
-        };
-        for i in 1..k {
-            if let Some(b) = output_coefficients.get(i - 1) {
-                acc += b * &h[k - i - 1];
+        let (done, rest) = flat.split_at_mut((k - 1) * mm);
+        let acc = &mut rest[..mm];
+        if let Some(b) = output_coefficients.get(k - 1) {
+            for (a, x) in acc.iter_mut().zip(b.as_slice()) {
+                *a = -x;
             }
         }
-        h.push(acc);
+        for i in 1..k.min(output_coefficients.len() + 1) {
+            let b = output_coefficients[i - 1].as_slice();
+            let h = &done[(k - i - 1) * mm..(k - i) * mm];
+            mul_add(acc, b, h, m, m);
+        }
     }
-    h
+    (0..count)
+        .map(|k| DMatrix::from_column_slice(m, m, &flat[k * mm..(k + 1) * mm]))
+        .collect()
 }
 
 struct FitInfo {
