@@ -137,6 +137,41 @@ fn eight_times(t: String) -> String {
         .replace("pretrigger_samples = 32", "pretrigger_samples = 256")
 }
 
+/// Hammer records longer than the peak search's block (65536 samples): the
+/// modes are sought in one block per hit around the force's peak, found as
+/// in the whole record, and the factor is the same 11. Hits of 100000
+/// samples at 512 Hz with the hit at sample 20000 (the block starts 4096
+/// samples before it).
+#[test]
+fn long_hammer_records_are_searched_in_one_block() {
+    let dir = tempfile::tempdir().unwrap();
+    let long = |t: String| {
+        t.replace("sample_rate_hz = 64.0", "sample_rate_hz = 512.0")
+            .replace("samples = 2048", "samples = 100000")
+            .replace("pretrigger_samples = 32", "pretrigger_samples = 20000")
+    };
+    let files = simulate(dir.path(), "long", &long, "", 2);
+    let v = identify_no_uncertainty(&files, &[]);
+    let d = &v["decimation"];
+    assert_eq!(d["factor"], 11, "{d:#}");
+    let peaks: Vec<f64> = d["peaks_hz"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.as_f64().unwrap())
+        .collect();
+    // Within the line spacing of the 128-s block (1/128 Hz) of the modes.
+    assert_eq!(peaks.len(), 2, "{d:#}");
+    assert!(
+        (peaks[0] - 2.725).abs() < 1.0 / 128.0 && (peaks[1] - 9.154).abs() < 1.0 / 128.0,
+        "{peaks:?}"
+    );
+    // Two hits at 1 % noise: M and K within the 0.5 % of the decimation
+    // test below.
+    let (m, k) = errors(&v);
+    assert!(m < 0.005 && k < 0.005, "M {m} K {k}");
+}
+
 #[test]
 fn records_sampled_far_above_the_band_are_decimated() {
     let dir = tempfile::tempdir().unwrap();
