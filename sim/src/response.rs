@@ -29,6 +29,16 @@ pub type Channels = Vec<Vec<f64>>;
 
 /// Exact analyzer-chain response engine for one model, hit floor, pulse
 /// duration and sampling; build once, call for many hits.
+///
+/// Per pulse, only the few internal samples during the pulse are stepped
+/// explicitly. Every FIR window that reaches past the pulse end takes the
+/// free response after the end in closed form: with `z_e` the state at the
+/// first internal instant `i_e` at or after the end and `j = i_e - (n d - L)`
+/// the window position of that instant, the free part of output `n` is
+/// `H_j z_e`, `H_j = C_out sum_{k >= j} h_k Phi^(k - j)` (tabulated once for
+/// every `j`). Windows that start after the end (most of the record) follow
+/// the free response at the analysis rate: plant and filters decoupled
+/// ([`FreeTail`]) so that a step costs a few dozen operations.
 #[derive(Debug, Clone)]
 pub struct AnalyzerEngine {
     n_out: usize,
@@ -41,10 +51,22 @@ pub struct AnalyzerEngine {
     c_out: DMatrix<f64>,
     phi_on: DMatrix<f64>,
     phi_off: DMatrix<f64>,
-    phi_off_analysis: DMatrix<f64>,
-    g: DMatrix<f64>,
     taps: Vec<f64>,
+    /// Plant states (they start at `PLANT_AT`).
+    plant_states: usize,
+    /// Order of each channel's analog filter; channel c's filter states
+    /// start at `filters_at + c * filter_order`.
+    filter_order: usize,
+    filters_at: usize,
+    /// `H_j` restricted to what channel c reads (plant states, then its
+    /// filter's states): `fir_folded[(j * n_out + c) * w ..][..w]`,
+    /// `w = plant_states + filter_order`, for `j = 0..taps.len()`.
+    fir_folded: Vec<f64>,
+    tail: FreeTail,
 }
+
+/// Index of the first plant state (after the two pulse-generator states).
+const PLANT_AT: usize = 2;
 
 impl AnalyzerEngine {
     /// `input_dof` is zero-based; `dt_s` the analysis sample interval.
@@ -75,7 +97,7 @@ impl AnalyzerEngine {
         design: &AnalyzerDesign,
     ) -> Self {
         let n_out = plant.channels();
-        let xs = 2; // plant states start after the two generator states
+        let xs = PLANT_AT; // plant states start after the two generator states
         let chain = ChainSystem::new(plant, design, xs);
         let a_off = chain.a;
         // During the pulse: generator s1' = w s2, s2' = -w s1 with
@@ -100,23 +122,68 @@ impl AnalyzerEngine {
         let dt_internal_s = dt_s / design.oversampling as f64;
         let phi_on = (&a_on * dt_internal_s).exp();
         let phi_off = (&a_off * dt_internal_s).exp();
-        let phi_off_analysis = (&a_off * dt_s).exp();
         let taps = kaiser_lowpass(
             design.internal_rate_hz,
             design.passband_hz,
             design.stopband_hz,
             design.stopband_attenuation_db,
         );
-        // G = C_out sum_k taps[k] Phi_off^k: the FIR output of a free
-        // response whose window starts at the current state.
-        let mut g = DMatrix::zeros(n_out, a_off.nrows());
-        let mut row = c_out.clone();
-        for (k, &t) in taps.iter().enumerate() {
-            g += &row * t;
-            if k + 1 < taps.len() {
-                row = &row * &phi_off;
+        // H_j = h_j C_out + H_{j+1} Phi_off backwards from H_K = 0. Channel c
+        // reads its own filter's states only, and the free dynamics couple
+        // the plant into every filter but no filter into anything else, so
+        // row c of H_j has non-zeros on the plant's and filter c's states.
+        let width = np + nf;
+        let k_len = taps.len();
+        let mut fir_folded = vec![0.0; k_len * n_out * width];
+        let phi_pp = phi_off.view((xs, xs), (np, np)).into_owned();
+        for c in 0..n_out {
+            let o = fs + c * nf;
+            let phi_fp = phi_off.view((o, xs), (nf, np)).into_owned();
+            let phi_ff = phi_off.view((o, o), (nf, nf)).into_owned();
+            let out_row = chain.filter_c.clone();
+            let mut next = vec![0.0; width];
+            for j in (0..k_len).rev() {
+                let at = |j: usize| (j * n_out + c) * width;
+                if j + 1 < k_len {
+                    let prev = &fir_folded[at(j + 1)..at(j + 1) + width];
+                    for col in 0..np {
+                        let mut acc = 0.0;
+                        for r in 0..np {
+                            acc += prev[r] * phi_pp[(r, col)];
+                        }
+                        for r in 0..nf {
+                            acc += prev[np + r] * phi_fp[(r, col)];
+                        }
+                        next[col] = acc;
+                    }
+                    for col in 0..nf {
+                        let mut acc = 0.0;
+                        for r in 0..nf {
+                            acc += prev[np + r] * phi_ff[(r, col)];
+                        }
+                        next[np + col] = acc;
+                    }
+                } else {
+                    next.iter_mut().for_each(|v| *v = 0.0);
+                }
+                for r in 0..nf {
+                    next[np + r] += taps[j] * out_row[(0, r)];
+                }
+                fir_folded[at(j)..at(j) + width].copy_from_slice(&next);
             }
         }
+        let tail = FreeTail::new(
+            &a_off,
+            &fir_folded[..n_out * width],
+            FreeLayout {
+                n_out,
+                plant_states: np,
+                filter_order: nf,
+                filters_at: fs,
+            },
+            dt_internal_s,
+            dt_s,
+        );
         AnalyzerEngine {
             n_out,
             samples,
@@ -128,9 +195,12 @@ impl AnalyzerEngine {
             c_out,
             phi_on,
             phi_off,
-            phi_off_analysis,
-            g,
             taps,
+            plant_states: np,
+            filter_order: nf,
+            filters_at: fs,
+            fir_folded,
+            tail,
         }
     }
 
@@ -196,74 +266,75 @@ impl AnalyzerEngine {
         let ti = self.dt_internal_s;
         let d = self.oversampling as i64;
         let l = self.fir_half_length() as i64;
+        let k_len = self.taps.len() as i64;
         let n_total = self.samples as i64;
         let i_a = (p.start_s / ti).ceil() as i64; // first grid instant at or after the start
         let i_e = (p.end_s() / ti).ceil() as i64; // first grid instant at or after the end
         let n_first = div_ceil(i_a - l, d).max(0);
-        let n_closed = div_ceil(i_e + l, d).max(n_first); // window starts at or after i_e
-        let n_explicit_end = n_closed.min(n_total);
         if n_first >= n_total {
             return;
         }
-        let i_closed = n_closed * d - l;
-        let i_stop =
-            ((n_explicit_end - 1) * d + l).max(if n_closed < n_total { i_closed } else { i_a });
-        let count = (i_stop - i_a + 1).max(1) as usize;
-        // Internal samples s_i = C_out z_i on [i_a, i_stop].
-        let mut s = DMatrix::zeros(self.n_out, count);
+        // First output whose window starts at or after i_e.
+        let n_closed = div_ceil(i_e + l, d).max(n_first);
+        // Internal samples during the pulse (i_a <= i < i_e), channel-major,
+        // and the state at i_e.
+        let during = (i_e - i_a).max(0) as usize;
+        let mut s = vec![0.0; self.n_out * during];
         let mut z = self.advance(&self.initial_state(p), p, p.start_s, i_a as f64 * ti);
-        // Steps inside and after the pulse go through preallocated buffers (the same
-        // products as `step`, so the same numbers); only the step across the pulse end
-        // allocates.
         let mut next = z.clone();
         let mut y = DVector::zeros(self.n_out);
-        let mut z_closed = None;
-        for (k, i) in (i_a..=i_stop).enumerate() {
+        for (k, i) in (i_a..i_e).enumerate() {
             self.c_out.mul_to(&z, &mut y);
-            s.set_column(k, &y);
-            if i == i_closed {
-                z_closed = Some(z.clone());
+            for ch in 0..self.n_out {
+                s[ch * during + k] = y[ch];
             }
-            if i < i_stop {
-                if i + 1 < i_e {
-                    self.phi_on.mul_to(&z, &mut next);
-                    std::mem::swap(&mut z, &mut next);
-                } else if i >= i_e {
-                    self.phi_off.mul_to(&z, &mut next);
-                    std::mem::swap(&mut z, &mut next);
-                } else {
-                    z = self.step(&z, p, i, i_e);
-                }
+            if i + 1 < i_e {
+                self.phi_on.mul_to(&z, &mut next);
+                std::mem::swap(&mut z, &mut next);
+            } else {
+                z = self.step(&z, p, i, i_e);
             }
         }
-        // Each channel's internal samples contiguous; the FIR sums run in the same order.
-        let rows: Vec<Vec<f64>> = (0..self.n_out)
-            .map(|ch| s.row(ch).iter().copied().collect())
-            .collect();
-        for n in n_first..n_explicit_end {
-            let lo = (n * d - l).max(i_a);
-            let hi = n * d + l;
-            let taps = &self.taps[(lo - (n * d - l)) as usize..=(hi - (n * d - l)) as usize];
-            let (from, to) = ((lo - i_a) as usize, (hi - i_a) as usize);
-            for (ch, row) in rows.iter().enumerate() {
+        let (np, nf) = (self.plant_states, self.filter_order);
+        let width = np + nf;
+        let plant_e = &z.as_slice()[PLANT_AT..PLANT_AT + np];
+        // Outputs whose window holds pulse samples and/or reaches the free
+        // response from i_e (H_j z_e, j = i_e - window start >= 1).
+        for n in n_first..n_closed.min(n_total) {
+            let ws = n * d - l;
+            let lo = ws.max(i_a);
+            let hi = (ws + k_len - 1).min(i_e - 1);
+            let j = i_e - ws;
+            for ch in 0..self.n_out {
                 let mut acc = 0.0;
-                for (t, x) in taps.iter().zip(&row[from..=to]) {
-                    acc += t * x;
+                if lo <= hi {
+                    let taps = &self.taps[(lo - ws) as usize..=(hi - ws) as usize];
+                    let row =
+                        &s[ch * during + (lo - i_a) as usize..=ch * during + (hi - i_a) as usize];
+                    for (t, x) in taps.iter().zip(row) {
+                        acc += t * x;
+                    }
+                }
+                if j < k_len {
+                    let at = (j as usize * self.n_out + ch) * width;
+                    let h = &self.fir_folded[at..at + width];
+                    let o = self.filters_at + ch * nf;
+                    let filter_e = &z.as_slice()[o..o + nf];
+                    for (hv, zv) in h.iter().zip(plant_e.iter().chain(filter_e)) {
+                        acc += hv * zv;
+                    }
                 }
                 out[ch][n as usize] += acc;
             }
         }
         if n_closed < n_total {
-            let mut z = z_closed.expect("closed-form start lies in the explicit range");
-            let mut next = z.clone();
-            for n in n_closed..n_total {
-                self.g.mul_to(&z, &mut y);
-                for ch in 0..self.n_out {
-                    out[ch][n as usize] += y[ch];
-                }
-                self.phi_off_analysis.mul_to(&z, &mut next);
-                std::mem::swap(&mut z, &mut next);
-            }
+            let i_closed = n_closed * d - l;
+            self.tail.add(
+                z.as_slice(),
+                (i_closed - i_e) as usize,
+                n_closed as usize,
+                out,
+            );
         }
     }
 
@@ -313,6 +384,7 @@ struct ChainSystem {
     filters_at: usize,
     filter_order: usize,
     filter_b: DMatrix<f64>,
+    filter_c: DMatrix<f64>,
 }
 
 impl ChainSystem {
@@ -353,6 +425,279 @@ impl ChainSystem {
             filters_at: fs,
             filter_order: nf,
             filter_b: filt.b,
+            filter_c: filt.c,
+        }
+    }
+}
+
+/// Sizes and offsets of the chain's free system (see [`ChainSystem`]).
+#[derive(Debug, Clone, Copy)]
+struct FreeLayout {
+    n_out: usize,
+    plant_states: usize,
+    filter_order: usize,
+    filters_at: usize,
+}
+
+/// The FIR output of the free response at the analysis rate, `y_n = G z_n`
+/// with `G = H_0` and `z` stepped by `Phi_off` over one analysis interval.
+///
+/// The free system is lower block triangular: the plant `p' = A_p p` drives
+/// every channel's filter, `f_c' = A_f f_c + E_c p`, and nothing else
+/// couples. With `X_c` solving the Sylvester equation
+/// `A_f X_c - X_c A_p = -E_c`, the states `w_c = f_c - X_c p` are free of
+/// the plant (`w_c' = A_f w_c`), so one analysis step costs a plant step,
+/// one small filter step per channel (skipped once the filter transients
+/// have decayed to exactly zero) and `n_out` short dot products instead of
+/// a product with the whole `Phi_off`. When the filter and plant poles are
+/// too close for a well-conditioned `X_c` (the check at construction), the
+/// whole state is stepped instead.
+#[derive(Debug, Clone)]
+enum FreeTail {
+    Decoupled(Decoupled),
+    Full {
+        layout: FreeLayout,
+        /// `H_0` as in [`AnalyzerEngine::fir_folded`].
+        g: Vec<f64>,
+        phi_internal: DMatrix<f64>,
+        phi_analysis: DMatrix<f64>,
+    },
+}
+
+/// Plant and filter transients separated (see [`FreeTail`]); matrices
+/// row-major.
+#[derive(Debug, Clone)]
+struct Decoupled {
+    layout: FreeLayout,
+    /// `X_c`, `filter_order x plant_states` each, channel after channel.
+    x: Vec<f64>,
+    phi_p_internal: Vec<f64>,
+    phi_f_internal: Vec<f64>,
+    phi_p: Vec<f64>,
+    phi_f: Vec<f64>,
+    /// Output rows on the plant states: `G_c^p + G_c^f X_c`.
+    g_p: Vec<f64>,
+    /// Output rows on the decoupled filter states: `G_c^f`.
+    g_w: Vec<f64>,
+}
+
+/// `y = m x` for a row-major `m` of `y.len()` rows.
+fn mat_vec(m: &[f64], x: &[f64], y: &mut [f64]) {
+    let cols = x.len();
+    for (r, yr) in y.iter_mut().enumerate() {
+        let row = &m[r * cols..(r + 1) * cols];
+        let mut acc = 0.0;
+        for (a, b) in row.iter().zip(x) {
+            acc += a * b;
+        }
+        *yr = acc;
+    }
+}
+
+fn row_major(m: &DMatrix<f64>) -> Vec<f64> {
+    m.transpose().as_slice().to_vec()
+}
+
+/// Largest residual `A_f X_c - X_c A_p + E_c` of the Sylvester solutions
+/// accepted, relative to `|A_f| |X_c| + |X_c| |A_p| + |E_c|` (Frobenius).
+/// The decoupled filter states then obey `w_c' = A_f w_c + R_c p`, and the
+/// ignored `R_c p` is an error of that relative size in the filter
+/// transients. The LU solution of the Kronecker system is backward stable:
+/// 2e-17 on the paper's frames (measured); a residual far above round-off
+/// means filter and plant poles too close together, and the whole state is
+/// stepped instead.
+const SYLVESTER_RESIDUAL_TOLERANCE: f64 = 1e-13;
+
+impl FreeTail {
+    /// `g` is `H_0` (as in [`AnalyzerEngine::fir_folded`]).
+    fn new(
+        a_off: &DMatrix<f64>,
+        g: &[f64],
+        layout: FreeLayout,
+        dt_internal_s: f64,
+        dt_s: f64,
+    ) -> FreeTail {
+        match Decoupled::new(a_off, g, layout, dt_internal_s, dt_s) {
+            Some(d) => FreeTail::Decoupled(d),
+            None => FreeTail::Full {
+                layout,
+                g: g.to_vec(),
+                phi_internal: (a_off * dt_internal_s).exp(),
+                phi_analysis: (a_off * dt_s).exp(),
+            },
+        }
+    }
+
+    /// Adds the FIR outputs `first..` (to the end of `out`) of the free
+    /// response from the full state `z` (at window start of output
+    /// `first` minus `internal_steps` internal steps).
+    fn add(&self, z: &[f64], internal_steps: usize, first: usize, out: &mut Channels) {
+        match self {
+            FreeTail::Decoupled(d) => d.add(z, internal_steps, first, out),
+            FreeTail::Full {
+                layout,
+                g,
+                phi_internal,
+                phi_analysis,
+            } => {
+                let (np, nf) = (layout.plant_states, layout.filter_order);
+                let width = np + nf;
+                let mut z = DVector::from_column_slice(z);
+                let mut next = z.clone();
+                for _ in 0..internal_steps {
+                    phi_internal.mul_to(&z, &mut next);
+                    std::mem::swap(&mut z, &mut next);
+                }
+                let samples = out[0].len();
+                for n in first..samples {
+                    let zs = z.as_slice();
+                    for (c, channel) in out.iter_mut().enumerate() {
+                        let o = layout.filters_at + c * nf;
+                        let row = &g[c * width..(c + 1) * width];
+                        let plant = &zs[PLANT_AT..PLANT_AT + np];
+                        let mut acc = 0.0;
+                        for (h, v) in row.iter().zip(plant.iter().chain(&zs[o..o + nf])) {
+                            acc += h * v;
+                        }
+                        channel[n] += acc;
+                    }
+                    phi_analysis.mul_to(&z, &mut next);
+                    std::mem::swap(&mut z, &mut next);
+                }
+            }
+        }
+    }
+}
+
+impl Decoupled {
+    fn new(
+        a_off: &DMatrix<f64>,
+        g: &[f64],
+        layout: FreeLayout,
+        dt_internal_s: f64,
+        dt_s: f64,
+    ) -> Option<Decoupled> {
+        let FreeLayout {
+            n_out,
+            plant_states: np,
+            filter_order: nf,
+            filters_at: fs,
+        } = layout;
+        let a_p = a_off.view((PLANT_AT, PLANT_AT), (np, np)).into_owned();
+        let a_f = a_off.view((fs, fs), (nf, nf)).into_owned();
+        // vec(A_f X - X A_p) = (I (x) A_f - A_p^T (x) I) vec(X), column-major vec.
+        let dim = nf * np;
+        let mut sylvester = DMatrix::zeros(dim, dim);
+        for j in 0..np {
+            for r in 0..nf {
+                for r2 in 0..nf {
+                    sylvester[(j * nf + r, j * nf + r2)] += a_f[(r, r2)];
+                }
+                for j2 in 0..np {
+                    sylvester[(j * nf + r, j2 * nf + r)] -= a_p[(j2, j)];
+                }
+            }
+        }
+        let lu = sylvester.lu();
+        let mut x = Vec::with_capacity(n_out * dim);
+        for c in 0..n_out {
+            let o = fs + c * nf;
+            // The filters are identical on every channel (one design).
+            if a_off.view((o, o), (nf, nf)) != a_f.view((0, 0), (nf, nf)) {
+                return None;
+            }
+            let e = a_off.view((o, PLANT_AT), (nf, np));
+            let rhs = DVector::from_iterator(dim, e.iter().map(|v| -v));
+            let sol = lu.solve(&rhs)?;
+            if sol.iter().any(|v| !v.is_finite()) {
+                return None;
+            }
+            let x_c = DMatrix::from_column_slice(nf, np, sol.as_slice());
+            let residual = (&a_f * &x_c - &x_c * &a_p + e).norm();
+            let size = (a_f.norm() + a_p.norm()) * x_c.norm() + e.norm();
+            if !(residual <= SYLVESTER_RESIDUAL_TOLERANCE * size) {
+                return None;
+            }
+            x.extend(row_major(&x_c));
+        }
+        let width = np + nf;
+        let mut g_p = vec![0.0; n_out * np];
+        let mut g_w = vec![0.0; n_out * nf];
+        for c in 0..n_out {
+            let row = &g[c * width..(c + 1) * width];
+            let x_c = &x[c * dim..(c + 1) * dim];
+            for col in 0..np {
+                let mut acc = row[col];
+                for r in 0..nf {
+                    acc += row[np + r] * x_c[r * np + col];
+                }
+                g_p[c * np + col] = acc;
+            }
+            g_w[c * nf..(c + 1) * nf].copy_from_slice(&row[np..]);
+        }
+        Some(Decoupled {
+            layout,
+            x,
+            phi_p_internal: row_major(&(&a_p * dt_internal_s).exp()),
+            phi_f_internal: row_major(&(&a_f * dt_internal_s).exp()),
+            phi_p: row_major(&(&a_p * dt_s).exp()),
+            phi_f: row_major(&(&a_f * dt_s).exp()),
+            g_p,
+            g_w,
+        })
+    }
+
+    fn add(&self, z: &[f64], internal_steps: usize, first: usize, out: &mut Channels) {
+        let FreeLayout {
+            n_out,
+            plant_states: np,
+            filter_order: nf,
+            filters_at: fs,
+        } = self.layout;
+        let mut p = z[PLANT_AT..PLANT_AT + np].to_vec();
+        let mut w = vec![0.0; n_out * nf];
+        let mut next_p = vec![0.0; np];
+        let mut next_w = vec![0.0; nf];
+        for c in 0..n_out {
+            let x_c = &self.x[c * nf * np..(c + 1) * nf * np];
+            mat_vec(x_c, &p, &mut next_w);
+            for r in 0..nf {
+                w[c * nf + r] = z[fs + c * nf + r] - next_w[r];
+            }
+        }
+        let step_w = |w: &mut [f64], phi: &[f64], next: &mut [f64]| {
+            for c in 0..n_out {
+                let wc = &mut w[c * nf..(c + 1) * nf];
+                mat_vec(phi, wc, next);
+                wc.copy_from_slice(next);
+            }
+        };
+        for _ in 0..internal_steps {
+            mat_vec(&self.phi_p_internal, &p, &mut next_p);
+            std::mem::swap(&mut p, &mut next_p);
+            step_w(&mut w, &self.phi_f_internal, &mut next_w);
+        }
+        let samples = out[0].len();
+        let mut transient = w.iter().any(|&v| v != 0.0);
+        for n in first..samples {
+            for (c, channel) in out.iter_mut().enumerate() {
+                let mut acc = 0.0;
+                for (g, v) in self.g_p[c * np..(c + 1) * np].iter().zip(&p) {
+                    acc += g * v;
+                }
+                if transient {
+                    for (g, v) in self.g_w[c * nf..(c + 1) * nf].iter().zip(&w[c * nf..]) {
+                        acc += g * v;
+                    }
+                }
+                channel[n] += acc;
+            }
+            mat_vec(&self.phi_p, &p, &mut next_p);
+            std::mem::swap(&mut p, &mut next_p);
+            if transient {
+                step_w(&mut w, &self.phi_f, &mut next_w);
+                transient = w.iter().any(|&v| v != 0.0);
+            }
         }
     }
 }
