@@ -41,7 +41,7 @@ pub type Channels = Vec<Vec<f64>>;
 /// `H_j z_e`, `H_j = C_out sum_{k >= j} h_k Phi^(k - j)` (tabulated once for
 /// every `j`). Windows that start after the end (most of the record) follow
 /// the free response at the analysis rate: plant and filters decoupled
-/// ([`FreeTail`]) so that a step costs a few dozen operations.
+/// (`FreeTail`) so that a step costs a few dozen operations.
 #[derive(Debug, Clone)]
 pub struct AnalyzerEngine {
     n_out: usize,
