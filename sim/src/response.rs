@@ -3,13 +3,16 @@
 //! Two acquisition models:
 //! - [`AnalyzerEngine`]: structure, half-sine pulse generator and one analog
 //!   anti-alias filter per channel form one continuous linear system whose
-//!   state is propagated exactly (matrix exponentials, split at the pulse's
-//!   start and end) on the internal ADC grid; the decimation FIR is then
-//!   applied. Outside the pulse the system is free, so once a FIR window
-//!   lies entirely after the pulse its output is `G z` with the precomputed
-//!   `G = C_out sum_k h_k Phi^k`, and the state advances one analysis step
-//!   at a time. [`AnalyzerEngine::reference_response`] computes the same
-//!   thing sample by sample on the whole internal grid (the test oracle).
+//!   state is known exactly (matrix exponentials) on the internal ADC
+//!   grid; the decimation FIR is then applied. Only the few internal
+//!   samples during the pulse are evaluated (the half-sine response in
+//!   closed form); the FIR sum over the free response after the pulse is a
+//!   tabulated row `H_j` times the state at the pulse end, and once a
+//!   window lies entirely after the pulse the output is `G z` with the
+//!   state advancing one analysis step at a time, plant and filter
+//!   transients decoupled. [`AnalyzerEngine::reference_response`] computes
+//!   the same thing sample by sample on the whole internal grid (the test
+//!   oracle).
 //! - [`HeldEngine`]: the force is held constant over each analysis sample at
 //!   its mean value over the sample (zero-order hold) and the structure's
 //!   response is the exact ZOH discretization; no analyzer chain.
@@ -38,7 +41,7 @@ pub type Channels = Vec<Vec<f64>>;
 /// `H_j z_e`, `H_j = C_out sum_{k >= j} h_k Phi^(k - j)` (tabulated once for
 /// every `j`). Windows that start after the end (most of the record) follow
 /// the free response at the analysis rate: plant and filters decoupled
-/// ([`FreeTail`]) so that a step costs a few dozen operations.
+/// (`FreeTail`) so that a step costs a few dozen operations.
 #[derive(Debug, Clone)]
 pub struct AnalyzerEngine {
     n_out: usize,
