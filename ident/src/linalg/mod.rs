@@ -514,7 +514,7 @@ impl RightSvd {
 }
 
 /// Singular values (descending) and, on demand, right singular vectors of `m`. For a
-/// matrix at least [`QR_FIRST_RATIO`] times wider than long, `M^T = Q R` by Householder,
+/// matrix at least twice as wide as long (`QR_FIRST_RATIO`), `M^T = Q R` by Householder,
 /// then the SVD of `R^T` without its left vectors, and `V = Q W` formed only for the
 /// columns asked for: the same singular values as [`thin_svd`] (the same factorizations),
 /// at a fraction of its work.
