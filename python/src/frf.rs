@@ -1758,19 +1758,12 @@ fn identify_frf(
         identifier = identifier.exponential_window(tau);
     }
     // Where each reference acts: the floor of the response at its point.
-    let reference_outputs: Vec<Option<usize>> = set
-        .references
-        .iter()
-        .enumerate()
-        .map(|(l, r)| {
-            if l == collocated.1 {
-                Some(collocated.0)
-            } else {
-                let r = r.point();
-                set.responses.iter().position(|p| p.point().same_point(&r))
-            }
-        })
-        .collect();
+    let points = |p: &[PointState]| p.iter().map(PointState::point).collect::<Vec<_>>();
+    let reference_outputs = study::frf_analysis::reference_outputs(
+        &points(&set.responses),
+        &points(&set.references),
+        collocated,
+    );
     let settings = FrfAnalysisSettings {
         identifier,
         strict,

@@ -400,7 +400,8 @@ fn identify_frfs(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
     if let Some(tau) = args.exponential_tau.or(set.exponential_tau_s) {
         identifier = identifier.exponential_window(tau);
     }
-    let reference_outputs = study::frf_analysis::reference_outputs(&set, collocated);
+    let reference_outputs =
+        study::frf_analysis::reference_outputs(&set.responses, &set.references, collocated);
     let settings = FrfAnalysisSettings {
         identifier,
         strict: args.strict,

@@ -738,13 +738,7 @@ fn misfits(c: &Campaign, model: &Identification) -> Vec<Vec<Misfit>> {
             let p = model.realization.simulate(&r.inputs);
             (0..c.outputs.len())
                 .map(|j| {
-                    let residual: Vec<f64> = r
-                        .outputs
-                        .row(j)
-                        .iter()
-                        .zip(p.row(j).iter())
-                        .map(|(y, q)| y - sign * q)
-                        .collect();
+                    let residual = output_residual(r, &p, sign, j);
                     let (mut d, mut e, mut x) = (0.0, 0.0, 0.0);
                     for ((y, q), r) in r.outputs.row(j).iter().zip(p.row(j).iter()).zip(&residual) {
                         let q = sign * q;
@@ -970,6 +964,17 @@ fn decimate_campaign(
     (out, decimation)
 }
 
+/// Output `j` of record `r` less the model's prediction `p` (outputs x samples) with
+/// the input polarity `sign`.
+fn output_residual(r: &ident::Record, p: &DMatrix<f64>, sign: f64, j: usize) -> Vec<f64> {
+    r.outputs
+        .row(j)
+        .iter()
+        .zip(p.row(j).iter())
+        .map(|(y, q)| y - sign * q)
+        .collect()
+}
+
 /// Every record of `c` without its first `cut` samples.
 fn cut_start(c: &Campaign, cut: usize) -> Campaign {
     let records = c
@@ -1033,13 +1038,7 @@ fn start_misfit_ratios(c: &Campaign, model: &Identification) -> Vec<Option<f64>>
             let p = model.realization.simulate(&r.inputs);
             (0..r.outputs.nrows())
                 .filter_map(|j| {
-                    let e: Vec<f64> = r
-                        .outputs
-                        .row(j)
-                        .iter()
-                        .zip(p.row(j).iter())
-                        .map(|(y, q)| y - sign * q)
-                        .collect();
+                    let e = output_residual(r, &p, sign, j);
                     let end = rms(&e[n - w..]);
                     (end > 0.0).then(|| rms(&e[..w]) / end)
                 })

@@ -196,6 +196,27 @@ pub struct ModeReport {
     pub used: bool,
 }
 
+impl ModeReport {
+    /// The document of mode `m`; `used` if MKR and the Rayleigh fit use it.
+    /// The EMACs are null where the route has none (FRFs, a realization).
+    pub fn new(m: &ident::Mode, used: bool) -> Self {
+        let i = &m.indicators;
+        ModeReport {
+            frequency_hz: m.frequency_hz,
+            damping_ratio: m.damping_ratio,
+            mode_shape: m.shape.iter().map(|z| [z.re, z.im]).collect(),
+            emac: i.emac_output.zip(i.emac_input).map(|(o, i)| o * i),
+            emac_output: i.emac_output,
+            emac_input: i.emac_input,
+            mpc: i.mpc,
+            msv: i.msv,
+            cmi: i.cmi,
+            structural: m.structural,
+            used,
+        }
+    }
+}
+
 /// Rayleigh coefficients.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct RayleighReport {
@@ -296,23 +317,7 @@ impl IdentifyReport {
             .modes
             .iter()
             .enumerate()
-            .map(|(i, m)| ModeReport {
-                frequency_hz: m.frequency_hz,
-                damping_ratio: m.damping_ratio,
-                mode_shape: m.shape.iter().map(|z| [z.re, z.im]).collect(),
-                emac: m
-                    .indicators
-                    .emac_output
-                    .zip(m.indicators.emac_input)
-                    .map(|(o, i)| o * i),
-                emac_output: m.indicators.emac_output,
-                emac_input: m.indicators.emac_input,
-                mpc: m.indicators.mpc,
-                msv: m.indicators.msv,
-                cmi: m.indicators.cmi,
-                structural: m.structural,
-                used: r.mkr_modes.contains(&i),
-            })
+            .map(|(i, m)| ModeReport::new(m, r.mkr_modes.contains(&i)))
             .collect::<Vec<ModeReport>>();
         let out_of_model_modes = modes
             .iter()
@@ -497,22 +502,7 @@ impl FrfIdentifyReport {
     /// The document of an identification from FRFs.
     pub fn new(a: &FrfAnalysis, source: FrfSource) -> Self {
         let id = &a.identification;
-        let mode = |j: usize| {
-            let m = &id.modes[j];
-            ModeReport {
-                frequency_hz: m.frequency_hz,
-                damping_ratio: m.damping_ratio,
-                mode_shape: m.shape.iter().map(|z| [z.re, z.im]).collect(),
-                emac: None,
-                emac_output: None,
-                emac_input: None,
-                mpc: m.indicators.mpc,
-                msv: m.indicators.msv,
-                cmi: m.indicators.cmi,
-                structural: m.structural,
-                used: id.mkr_modes.contains(&j),
-            }
-        };
+        let mode = |j: usize| ModeReport::new(&id.modes[j], id.mkr_modes.contains(&j));
         FrfIdentifyReport {
             frameid_version: env!("CARGO_PKG_VERSION").into(),
             route: "frf".into(),

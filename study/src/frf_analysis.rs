@@ -577,17 +577,18 @@ pub fn bootstrap(
 /// reference's point is the collocated output; every other reference acts
 /// at the output whose point is its own, if any.
 pub fn reference_outputs(
-    set: &records::frf::FrfSet,
+    responses: &[records::frf::FrfPoint],
+    references: &[records::frf::FrfPoint],
     collocated: (usize, usize),
 ) -> Vec<Option<usize>> {
-    set.references
+    references
         .iter()
         .enumerate()
         .map(|(l, r)| {
             if l == collocated.1 {
                 Some(collocated.0)
             } else {
-                set.responses.iter().position(|p| p.same_point(r))
+                responses.iter().position(|p| p.same_point(r))
             }
         })
         .collect()

@@ -572,23 +572,31 @@ pub fn right_svd(m: &DMatrix<f64>) -> Result<RightSvd, LinalgError> {
     })
 }
 
-/// `a . b` (`b` at least as long as `a`) with four independent partial sums, which the
-/// compiler keeps in vector registers.
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let b = &b[..a.len()];
-    let mut acc = [0.0; 4];
-    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
-    let (ra, rb) = (ca.remainder(), cb.remainder());
-    for (x, y) in ca.zip(cb) {
-        for k in 0..4 {
-            acc[k] += x[k] * y[k];
+/// `a . b` over the shorter of the two, with four partial sums in two pairs of adjacent
+/// lanes: a fixed order (the result does not depend on threads), kept in two-lane vector
+/// registers. The sum is `(s0 + s2) + (s1 + s3) + tail`, `sk` over elements `k mod 4`.
+#[inline]
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut lo = [0.0; 2];
+    let mut hi = [0.0; 2];
+    let (ac, bc) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ar, br) = (ac.remainder(), bc.remainder());
+    for (x, y) in ac.zip(bc) {
+        let ((x0, x1), (y0, y1)) = (x.split_at(2), y.split_at(2));
+        for k in 0..2 {
+            lo[k] += x0[k] * y0[k];
+        }
+        for k in 0..2 {
+            hi[k] += x1[k] * y1[k];
         }
     }
     let mut tail = 0.0;
-    for (x, y) in ra.iter().zip(rb) {
+    for (x, y) in ar.iter().zip(br) {
         tail += x * y;
     }
-    (acc[0] + acc[2]) + (acc[1] + acc[3]) + tail
+    (lo[0] + hi[0]) + (lo[1] + hi[1]) + tail
 }
 
 /// Thin SVD by nalgebra (`rows` x `cols` is the shape reported on failure).

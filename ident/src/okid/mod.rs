@@ -334,34 +334,47 @@ impl OkidParams {
         let gxx = gram.view((0, 0), (c, c)).into_owned();
         let gxy = gram.view((0, ncols), (c, m)).into_owned();
         let layout_p = Layout { p, ..*layout };
+        // A solution `theta` at `rcond` (rank `rank`, after `raises`): the fit when its
+        // observer is stable (`None` when the fit is too close for the normal equations
+        // to be trusted), or the spectral radius when it is not.
+        let attempt = |theta: &DMatrix<f64>,
+                       rcond: f64,
+                       raises: &[RcondRaise],
+                       rank: usize|
+         -> Result<Result<Option<Okid>, f64>, OkidError> {
+            let coeffs = layout_p.coefficients(theta, &scales);
+            let radius = linalg::spectral_radius(&companion(&coeffs.b, m))?;
+            if !(radius < 1.0 && radius.is_finite()) {
+                return Ok(Err(radius));
+            }
+            let fit_ss = y_ss - 2.0 * theta.dot(&gxy) + theta.dot(&(&gxx * theta));
+            let relative_residual = (fit_ss.max(0.0) / y_ss).sqrt();
+            if relative_residual < NORMAL_RESIDUAL_LIMIT {
+                return Ok(Ok(None));
+            }
+            Ok(Ok(Some(self.finish(
+                coeffs,
+                FitInfo {
+                    p,
+                    rcond,
+                    raises: raises.to_vec(),
+                    rank,
+                    unknowns: c,
+                    equations: moments.equations,
+                    spectral_radius: radius,
+                    bic: bic.clone(),
+                    relative_residual,
+                },
+            ))))
+        };
         // Well-conditioned normal equations (the usual case with noisy records): every
         // eigenvalue is provably above the truncation floor, so the truncated solution
-        // below is the plain one, by Cholesky.
-        if let Some(theta) = well_conditioned_solve(&gxx, &gxy, self.rcond * self.rcond) {
-            let coeffs = layout_p.coefficients(&theta, &scales);
-            let radius = linalg::spectral_radius(&companion(&coeffs.b, m))?;
-            if radius < 1.0 && radius.is_finite() {
-                let fit_ss = y_ss - 2.0 * theta.dot(&gxy) + theta.dot(&(&gxx * &theta));
-                let relative_residual = (fit_ss.max(0.0) / y_ss).sqrt();
-                if relative_residual < NORMAL_RESIDUAL_LIMIT {
-                    return Ok(None);
-                }
-                return Ok(Some(self.finish(
-                    coeffs,
-                    FitInfo {
-                        p,
-                        rcond: self.rcond,
-                        raises: Vec::new(),
-                        rank: c,
-                        unknowns: c,
-                        equations: moments.equations,
-                        spectral_radius: radius,
-                        bic,
-                        relative_residual,
-                    },
-                )));
-            }
-            // An unstable observer: the eigen route below raises rcond.
+        // below is the plain one, by Cholesky. An unstable observer goes on to the eigen
+        // route, which raises rcond.
+        if let Some(theta) = well_conditioned_solve(&gxx, &gxy, self.rcond * self.rcond)
+            && let Ok(fit) = attempt(&theta, self.rcond, &[], c)?
+        {
+            return Ok(fit);
         }
         let eig = SymmetricEigen::new(gxx.clone());
         let lambda_max = eig.eigenvalues.max();
@@ -370,7 +383,6 @@ impl OkidParams {
             return Ok(None);
         }
         let vty = eig.eigenvectors.transpose() * &gxy;
-        let layout = layout_p;
         let mut rcond = self.rcond;
         let mut raises = Vec::new();
         loop {
@@ -386,29 +398,10 @@ impl OkidParams {
                 }
             }
             let theta = &eig.eigenvectors * scaled;
-            let coeffs = layout.coefficients(&theta, &scales);
-            let radius = linalg::spectral_radius(&companion(&coeffs.b, m))?;
-            if radius < 1.0 && radius.is_finite() {
-                let fit_ss = y_ss - 2.0 * theta.dot(&gxy) + theta.dot(&(&gxx * &theta));
-                let relative_residual = (fit_ss.max(0.0) / y_ss).sqrt();
-                if relative_residual < NORMAL_RESIDUAL_LIMIT {
-                    return Ok(None);
-                }
-                return Ok(Some(self.finish(
-                    coeffs,
-                    FitInfo {
-                        p,
-                        rcond,
-                        raises,
-                        rank,
-                        unknowns: c,
-                        equations: moments.equations,
-                        spectral_radius: radius,
-                        bic,
-                        relative_residual,
-                    },
-                )));
-            }
+            let radius = match attempt(&theta, rcond, &raises, rank)? {
+                Ok(fit) => return Ok(fit),
+                Err(radius) => radius,
+            };
             if raises.len() >= self.max_rcond_raises || rcond * 10.0 >= 1.0 {
                 return Err(OkidError::UnstableObserver {
                     spectral_radius: radius,

@@ -42,6 +42,21 @@ pub(crate) fn mul_add(a: &[C64], r: usize, k: usize, b: &[C64], c: usize, out: &
     }
 }
 
+/// Row of the largest magnitude in column `col` of the n x n matrix `a`, from the
+/// diagonal down (partial pivoting); `None` if it is zero or not finite.
+fn pivot(a: &[C64], n: usize, col: usize) -> Option<usize> {
+    let mut piv = col;
+    let mut best = a[col + col * n].norm_sqr();
+    for row in col + 1..n {
+        let v = a[row + col * n].norm_sqr();
+        if v > best {
+            best = v;
+            piv = row;
+        }
+    }
+    (best > 0.0 && best.is_finite()).then_some(piv)
+}
+
 /// Inverse of the n x n matrix `a` (destroyed) into `inv`, by Gauss-Jordan elimination
 /// with partial pivoting. Returns false if a pivot is zero or not finite.
 pub(crate) fn invert(a: &mut [C64], n: usize, inv: &mut [C64]) -> bool {
@@ -51,18 +66,9 @@ pub(crate) fn invert(a: &mut [C64], n: usize, inv: &mut [C64]) -> bool {
         inv[i + i * n] = C64::new(1.0, 0.0);
     }
     for col in 0..n {
-        let mut piv = col;
-        let mut best = a[col + col * n].norm_sqr();
-        for row in col + 1..n {
-            let v = a[row + col * n].norm_sqr();
-            if v > best {
-                best = v;
-                piv = row;
-            }
-        }
-        if !(best > 0.0 && best.is_finite()) {
+        let Some(piv) = pivot(a, n, col) else {
             return false;
-        }
+        };
         if piv != col {
             for j in 0..n {
                 a.swap(col + j * n, piv + j * n);
@@ -98,18 +104,9 @@ pub(crate) fn invert(a: &mut [C64], n: usize, inv: &mut [C64]) -> bool {
 pub(crate) fn solve(a: &mut [C64], n: usize, b: &mut [C64], c: usize) -> bool {
     debug_assert!(a.len() >= n * n && b.len() >= n * c);
     for col in 0..n {
-        let mut piv = col;
-        let mut best = a[col + col * n].norm_sqr();
-        for row in col + 1..n {
-            let v = a[row + col * n].norm_sqr();
-            if v > best {
-                best = v;
-                piv = row;
-            }
-        }
-        if !(best > 0.0 && best.is_finite()) {
+        let Some(piv) = pivot(a, n, col) else {
             return false;
-        }
+        };
         if piv != col {
             for j in col..n {
                 a.swap(col + j * n, piv + j * n);

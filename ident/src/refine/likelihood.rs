@@ -20,7 +20,7 @@ use super::dense;
 use super::model::Model;
 use super::param::Parameter;
 use super::spectra::{Bin, Spectra};
-use crate::linalg::C64;
+use crate::linalg::{C64, dot};
 use crate::mkr::MatrixKind;
 use crate::modal::Intersample;
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
@@ -240,32 +240,6 @@ pub(crate) fn eliminate_nuisance(
     let mut f = jtj - &jtx * xtx_inv * jtx.transpose();
     f = (&f + f.transpose()) * 0.5;
     (f, jt * r)
-}
-
-/// `a . b` with four partial sums in two pairs of adjacent lanes (a fixed order: the
-/// result does not depend on threads; the pairs map onto two-lane vector registers).
-#[inline]
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len().min(b.len());
-    let (a, b) = (&a[..n], &b[..n]);
-    let mut lo = [0.0; 2];
-    let mut hi = [0.0; 2];
-    let (ac, bc) = (a.chunks_exact(4), b.chunks_exact(4));
-    let (ar, br) = (ac.remainder(), bc.remainder());
-    for (x, y) in ac.zip(bc) {
-        let ((x0, x1), (y0, y1)) = (x.split_at(2), y.split_at(2));
-        for k in 0..2 {
-            lo[k] += x0[k] * y0[k];
-        }
-        for k in 0..2 {
-            hi[k] += x1[k] * y1[k];
-        }
-    }
-    let mut tail = 0.0;
-    for (x, y) in ar.iter().zip(br) {
-        tail += x * y;
-    }
-    (lo[0] + hi[0]) + (lo[1] + hi[1]) + tail
 }
 
 /// `(re, im) += w c` elementwise, `w` given by its real and imaginary parts.
