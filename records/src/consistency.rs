@@ -542,11 +542,23 @@ pub fn check_consistency(
         }
     }
 
-    // Duplicate records, whatever their names.
+    // Duplicate records, whatever their names. Each channel's fingerprint
+    // is computed once (the pairs are quadratic in the hits).
+    let prints: Vec<Vec<Fingerprint>> = data
+        .iter()
+        .map(|sig| sig.iter().map(|s| Fingerprint::of(&s.values)).collect())
+        .collect();
     let mut duplicate_of = vec![None; hits];
     for l in 1..hits {
         for k in 0..l {
             if duplicate_of[k].is_some() || data[k][0].values.len() != data[l][0].values.len() {
+                continue;
+            }
+            if !prints[k]
+                .iter()
+                .zip(&prints[l])
+                .all(|(a, b)| a.may_match(b, settings.duplicate_tolerance))
+            {
                 continue;
             }
             if let Some(share) = same_data(&data[k], &data[l], settings.duplicate_tolerance) {
@@ -886,15 +898,43 @@ fn dots(x: &[f64], y: &[f64]) -> (f64, f64, f64) {
     })
 }
 
-/// Largest share of difference energy over the channels if every channel
-/// of `a` and `b` differs by at most `tol` of its energy.
-fn same_data(a: &[Signal<'_>], b: &[Signal<'_>], tol: f64) -> Option<f64> {
-    // Cheap test first: the largest samples must be at the same place.
-    for (x, y) in a.iter().zip(b) {
-        if argmax_abs(&x.values, 0.0).0 != argmax_abs(&y.values, 0.0).0 {
-            return None;
+/// What two channels must share to be the same data: the place of the
+/// largest sample and, nearly, the energy.
+struct Fingerprint {
+    /// Index of the largest absolute sample.
+    peak: usize,
+    /// `sqrt(sum x^2)`.
+    norm: f64,
+}
+
+impl Fingerprint {
+    fn of(x: &[f64]) -> Self {
+        Self {
+            peak: argmax_abs(x, 0.0).0,
+            norm: x.iter().map(|v| v * v).sum::<f64>().sqrt(),
         }
     }
+
+    /// False when `self` (channel `x`) and `other` (`y`) cannot differ by at
+    /// most `tol` of the energy of `x`: `|x - y|^2 <= tol |x|^2` needs the
+    /// same largest sample and `||x| - |y|| <= |x - y| <= sqrt(tol) |x|`.
+    /// The norm test keeps a margin of 1 % plus 1e-9 of the larger norm,
+    /// far above the rounding of two sums of squares (about 1e-13 relative
+    /// for records of 10^6 samples), so a pair [`same_data`] would accept is
+    /// never skipped. Non-finite norms never skip (`same_data` decides).
+    fn may_match(&self, other: &Fingerprint, tol: f64) -> bool {
+        if self.peak != other.peak {
+            return false;
+        }
+        let gap = (self.norm - other.norm).abs();
+        !(gap > 1.01 * tol.sqrt() * self.norm + 1e-9 * self.norm.max(other.norm))
+    }
+}
+
+/// Largest share of difference energy over the channels if every channel
+/// of `a` and `b` differs by at most `tol` of its energy (callers test the
+/// channels' [`Fingerprint`]s first).
+fn same_data(a: &[Signal<'_>], b: &[Signal<'_>], tol: f64) -> Option<f64> {
     let mut worst: f64 = 0.0;
     for (x, y) in a.iter().zip(b) {
         let (mut d, mut e) = (0.0, 0.0);
@@ -1092,6 +1132,36 @@ mod tests {
         assert!(r.flags.iter().all(|f| f.kind == Inconsistency::Duplicate
             && f.message.contains("hit01.csv")
             && f.message.contains("identical samples")));
+    }
+
+    #[test]
+    fn near_duplicates_pass_the_fingerprint_and_rescaled_copies_do_not() {
+        // A copy scaled by 1 + 5e-5 differs by 2.5e-9 of the energy, under
+        // the default tolerance 1e-8: still the same data. Scaled by
+        // 1 + 2e-4 it differs by 4e-8: not a duplicate (and its norm alone
+        // tells, the fingerprint skips the sample comparison).
+        let mut c = campaign(5);
+        c.records[3] = c.records[0].clone();
+        c.records[3].outputs *= 1.0 + 5e-5;
+        c.records[3].inputs *= 1.0 + 5e-5;
+        c.records[4] = c.records[0].clone();
+        c.records[4].outputs *= 1.0 + 2e-4;
+        c.records[4].inputs *= 1.0 + 2e-4;
+        let r = check(&c);
+        let dups: Vec<usize> = r
+            .flags
+            .iter()
+            .filter(|f| f.kind == Inconsistency::Duplicate)
+            .map(|f| f.record)
+            .collect();
+        assert_eq!(dups, [3], "{:#?}", r.flags);
+        let x: Vec<f64> = (0..100).map(|i| (i as f64 * 0.37).sin()).collect();
+        let tol: f64 = 1e-8;
+        let a = Fingerprint::of(&x);
+        let y: Vec<f64> = x.iter().map(|v| v * (1.0 + 0.99 * tol.sqrt())).collect();
+        assert!(a.may_match(&Fingerprint::of(&y), tol));
+        let z: Vec<f64> = x.iter().map(|v| v * (1.0 + 1.1 * tol.sqrt())).collect();
+        assert!(!a.may_match(&Fingerprint::of(&z), tol));
     }
 
     #[test]
