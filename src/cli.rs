@@ -182,7 +182,7 @@ pub struct IdentifyArgs {
     /// Identify without the hits that fail a quality check (and say which were dropped)
     #[arg(long)]
     pub drop_bad_hits: bool,
-    /// Skip the error bars (jackknife over the hits: one extra identification per hit)
+    /// Skip the error bars (jackknife over the hits: one extra identification per hit, at most 20)
     #[arg(long)]
     pub no_uncertainty: bool,
     /// Refine M, K and the damping matrix by maximum likelihood over all hits (records only), with standard errors

@@ -221,6 +221,10 @@ impl Human for IdentifyReport {
         out.push_str(&format!("model order {}\n", self.model_order));
         let u = self.uncertainty.as_ref();
         match (u, &self.uncertainty_skipped) {
+            (Some(u), _) if u.groups < u.hits => out.push_str(&format!(
+                "error bars: +- one standard error, {} over {} hits in {} groups ({} resamples at model order {})\n",
+                u.method, u.hits, u.groups, u.resamples, u.model_order
+            )),
             (Some(u), _) => out.push_str(&format!(
                 "error bars: +- one standard error, {} over {} hits ({} resamples at model order {})\n",
                 u.method, u.hits, u.resamples, u.model_order

@@ -30,6 +30,7 @@ fn identify_reports_error_bars_in_json_and_tables() {
     assert_eq!(u["method"], "jackknife");
     assert_eq!(u["resamples"], 10);
     assert_eq!(u["hits"], 10);
+    assert_eq!(u["groups"], 10);
     assert_eq!(u["model_order"], json["model_order"]);
     for key in [
         "mass",
@@ -85,4 +86,42 @@ fn identify_reports_error_bars_in_json_and_tables() {
     let json: serde_json::Value = serde_json::from_str(&ok(&args)).unwrap();
     assert!(json["uncertainty"].is_null());
     assert_eq!(json["uncertainty_skipped"], "--no-uncertainty");
+}
+
+#[test]
+fn more_hits_than_groups_give_grouped_error_bars() {
+    // 25 hits: 20 groups (five of two hits), named in the text and JSON;
+    // the error bars keep the size of the delete-one jackknife's (K11 about
+    // 0.3 N/m for 10 hits, sqrt(10/25) of that here).
+    let dir = tempfile::tempdir().unwrap();
+    ok(&[
+        "simulate",
+        s(&repo("scenarios/paper-case1.toml")),
+        "--out",
+        s(dir.path()),
+        "--hits",
+        "25",
+    ]);
+    let files = hit_files(dir.path(), "csv");
+    let mut args: Vec<&str> = vec!["identify", "--json"];
+    args.extend(files.iter().map(String::as_str));
+    let json: serde_json::Value = serde_json::from_str(&ok(&args)).unwrap();
+    let u = &json["uncertainty"];
+    assert_eq!(u["method"], "grouped jackknife");
+    assert_eq!(
+        (u["hits"].as_u64(), u["groups"].as_u64()),
+        (Some(25), Some(20))
+    );
+    assert_eq!(u["resamples"], 20);
+    let k11 = u["stiffness"]["std"][0][0].as_f64().unwrap();
+    assert!((0.03..1.3).contains(&k11), "{k11}");
+    let human = ok(&args[..1]
+        .iter()
+        .copied()
+        .chain(files.iter().map(String::as_str))
+        .collect::<Vec<_>>());
+    assert!(
+        human.contains("error bars: +- one standard error, grouped jackknife over 25 hits in 20 groups (20 resamples"),
+        "{human}"
+    );
 }

@@ -92,7 +92,9 @@ mod testutil;
 pub use campaign::Campaign;
 pub use era::{Correlation, Era, EraError, EraParams, ModelOrder};
 pub use frf::{Frf, FrfError, FrfQuantity};
-pub use jackknife::{Jackknife, UncertaintyError, jackknife, leave_one_out};
+pub use jackknife::{
+    Jackknife, UncertaintyError, hit_groups, jackknife, jackknife_in_groups, leave_one_out,
+};
 pub use mkr::{CollocatedPair, Mkr, MkrError, MkrParams, PolarityPolicy};
 pub use modal::{Indicators, Intersample, ModalModel, ModalParams, Mode, StructuralRule};
 pub use okid::{InitialState, ObserverOrder, Okid, OkidError, OkidParams};

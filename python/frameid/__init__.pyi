@@ -92,12 +92,14 @@ class Mode:
         """Used by MKR and the Rayleigh fit."""
 
 class Uncertainty:
-    """Jackknife error bars over the hits: *_mean and *_std."""
+    """Jackknife error bars over the hits (over 20 groups of hits above 20 hits): *_mean and *_std."""
 
     @property
     def method(self) -> str: ...
     @property
     def hits(self) -> int: ...
+    @property
+    def groups(self) -> int: ...
     @property
     def resamples(self) -> int: ...
     @property

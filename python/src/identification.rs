@@ -530,7 +530,8 @@ impl Uncertainty {
 
 #[pymethods]
 impl Uncertainty {
-    /// ``"jackknife"``.
+    /// ``"jackknife"`` (one hit left out per resample) or ``"grouped jackknife"`` (more
+    /// than 20 hits: one group of hits left out per resample).
     #[getter]
     fn method(&self) -> String {
         self.state.method.clone()
@@ -539,6 +540,11 @@ impl Uncertainty {
     #[getter]
     fn hits(&self) -> usize {
         self.state.hits
+    }
+    /// Groups of hits, one left out per resample (the hits, up to 20).
+    #[getter]
+    fn groups(&self) -> usize {
+        self.state.groups
     }
     /// Resamples identified.
     #[getter]

@@ -49,7 +49,7 @@ def test_identify_recovers_m_k_and_damping_with_error_bars(case1, case1_result):
     assert res.intersample == "bandlimited"
     assert res.uncertainty is not None and res.uncertainty_skipped is None
     u = res.uncertainty
-    assert u.method == "jackknife" and u.hits == 10 and u.resamples == 10
+    assert u.method == "jackknife" and u.hits == 10 and u.groups == 10 and u.resamples == 10
     assert u.mass_std.shape == (2, 2) and np.all(u.mass_std > 0)
     # The error bars cover the truth: within 5 standard errors (4.4e-6
     # two-sided chance for a Gaussian per entry; the jackknife's own spread

@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use ident::jackknife::MIN_HITS;
 use ident::{Identification, Identifier};
-use ident::{Jackknife, UncertaintyError, jackknife};
+use ident::{Jackknife, UncertaintyError, jackknife, jackknife_in_groups};
 use rayon::prelude::*;
 use study::LoadedScenario;
 
@@ -96,6 +96,98 @@ fn jackknife_standard_errors_match_the_spread_over_campaigns() {
         );
     }
     eprintln!("worst ratio {worst:.2}");
+}
+
+#[test]
+fn grouped_error_bars_are_calibrated_like_the_delete_one_jackknife() {
+    // 20 seeded campaigns of 50 hits (the bench's large campaign): the
+    // default error bars leave out 20 groups of 2 or 3 hits (unequal sizes,
+    // the delete-m_j formula), the delete-one jackknife 50 single hits. Both
+    // are compared with the spread of the 20 joint estimates, and with each
+    // other.
+    const CAMPAIGNS: u64 = 20;
+    const HITS: usize = 50;
+    let s = case1();
+    let mut sc = s.scenario.clone();
+    sc.campaign.hits = HITS;
+    let sim = sc.simulator(s.model.clone()).unwrap();
+    let t = Instant::now();
+    let runs: Vec<(Identification, Jackknife, Jackknife)> = (1..=CAMPAIGNS)
+        .map(|seed| {
+            let c = sim.simulate(seed);
+            let camp = c.to_ident();
+            let id = Identifier::default();
+            let joint = id.identify(&camp.records, c.dt_s).unwrap();
+            let grouped = jackknife(&id, &camp, &joint).unwrap();
+            let delete_one = jackknife_in_groups(&id, &camp, &joint, HITS).unwrap();
+            (joint, grouped, delete_one)
+        })
+        .collect();
+    eprintln!(
+        "{CAMPAIGNS} campaigns of {HITS} hits, both jackknives, in {:.2?}",
+        t.elapsed()
+    );
+    for (_, g, d) in &runs {
+        assert_eq!(
+            (g.method.as_str(), g.hits, g.groups, g.resamples),
+            ("grouped jackknife", HITS, 20, 20)
+        );
+        assert_eq!(
+            (d.method.as_str(), d.groups, d.resamples),
+            ("jackknife", HITS, HITS)
+        );
+        assert!(g.failed.is_empty() && d.failed.is_empty());
+    }
+    let n = CAMPAIGNS as f64;
+    let spread = |get: &dyn Fn(&Identification) -> f64| {
+        let v: Vec<f64> = runs.iter().map(|(j, _, _)| get(j)).collect();
+        let mean = v.iter().sum::<f64>() / n;
+        (v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0)).sqrt()
+    };
+    let rms = |u: &dyn Fn(&(Identification, Jackknife, Jackknife)) -> f64| {
+        (runs.iter().map(|r| u(r).powi(2)).sum::<f64>() / n).sqrt()
+    };
+    eprintln!(
+        "quantity      spread of joint  rms grouped std  rms delete-one std  grouped/spread  delete-one/spread"
+    );
+    for (i, j) in [(0, 0), (0, 1), (1, 1)] {
+        for (name, get_joint, get_std) in [
+            (
+                format!("M[{}{}]", i + 1, j + 1),
+                Box::new(move |r: &Identification| r.mass[(i, j)])
+                    as Box<dyn Fn(&Identification) -> f64>,
+                Box::new(move |u: &Jackknife| u.mass.std[i][j]) as Box<dyn Fn(&Jackknife) -> f64>,
+            ),
+            (
+                format!("K[{}{}]", i + 1, j + 1),
+                Box::new(move |r: &Identification| r.stiffness[(i, j)]),
+                Box::new(move |u: &Jackknife| u.stiffness.std[i][j]),
+            ),
+        ] {
+            let sd = spread(&*get_joint);
+            let g = rms(&|r| get_std(&r.1));
+            let d = rms(&|r| get_std(&r.2));
+            eprintln!(
+                "{name:<12} {sd:>16.4e} {g:>16.4e} {d:>19.4e} {:>15.2} {:>18.2}",
+                g / sd,
+                d / sd
+            );
+            // Both against the spread: 1.5, as the 10-hit test (the spread
+            // of 20 values is itself uncertain by about 16 %).
+            for ratio in [g / sd, d / sd] {
+                assert!((1.0 / 1.5..1.5).contains(&ratio), "{name}: {ratio}");
+            }
+            // Against each other: the rms over 20 campaigns of a standard
+            // error from 20 groups is uncertain by about 16 % / sqrt(20),
+            // 4 %, and the two share their data; 15 % is generous for noise
+            // and tight for a wrong formula (a factor sqrt(2.5) = 1.58 if the
+            // group sizes were ignored).
+            assert!(
+                (g / d - 1.0).abs() < 0.15,
+                "{name}: grouped {g:e} delete-one {d:e}"
+            );
+        }
+    }
 }
 
 #[test]

@@ -659,14 +659,20 @@ impl ValidIdentifier {
         })
     }
 
-    /// Runs the whole chain on the prepared records without record `left_out`.
+    /// Runs the whole chain on the prepared records without the records `left_out` (a
+    /// non-empty range).
     pub(crate) fn identify_without(
         &self,
         prepared: &Prepared,
-        left_out: usize,
+        left_out: std::ops::Range<usize>,
     ) -> Result<Identification, Error> {
+        assert!(
+            !left_out.is_empty() && left_out.end <= prepared.records.len(),
+            "identify_without: left-out range {left_out:?} of {} records",
+            prepared.records.len()
+        );
         let keep: Vec<usize> = (0..prepared.records.len())
-            .filter(|&k| k != left_out)
+            .filter(|k| !left_out.contains(k))
             .collect();
         let refs: Vec<&Record> = keep.iter().map(|&k| &prepared.records[k]).collect();
         let first = refs.first().ok_or(Error::Data(DataError::NoRecords))?;
@@ -694,7 +700,17 @@ impl ValidIdentifier {
             }));
         }
         let peaks: Vec<usize> = keep.iter().map(|&k| prepared.peaks[k]).collect();
-        let moments = prepared.total.without(&prepared.per_record[left_out]);
+        // One record: its moments are subtracted as they are (the delete-one jackknife's
+        // results do not depend on how groups are summed); several: their sum.
+        let moments = if left_out.len() == 1 {
+            prepared.total.without(&prepared.per_record[left_out.start])
+        } else {
+            let mut group = prepared.per_record[left_out.start].clone();
+            for mom in &prepared.per_record[left_out.start + 1..left_out.end] {
+                group.add(mom);
+            }
+            prepared.total.without(&group)
+        };
         let decomposed =
             self.decompose_with(&refs, &peaks, shape, prepared.dt_s, Some(&moments))?;
         self.identify_decomposed(decomposed)
