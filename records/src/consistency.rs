@@ -927,7 +927,9 @@ impl Fingerprint {
             return false;
         }
         let gap = (self.norm - other.norm).abs();
-        !(gap > 1.01 * tol.sqrt() * self.norm + 1e-9 * self.norm.max(other.norm))
+        let bound = 1.01 * tol.sqrt() * self.norm + 1e-9 * self.norm.max(other.norm);
+        // A NaN on either side compares as "may match".
+        gap.partial_cmp(&bound) != Some(std::cmp::Ordering::Greater)
     }
 }
 
