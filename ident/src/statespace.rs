@@ -96,8 +96,13 @@ impl StateSpace {
         // allocations per sample.
         let times = |mat: &DMatrix<f64>, v: &[f64], out: &mut [f64]| {
             out.fill(0.0);
-            for (j, &vj) in v.iter().enumerate() {
-                for (o, &a) in out.iter_mut().zip(mat.column(j).iter()) {
+            let rows = out.len();
+            if rows == 0 {
+                return;
+            }
+            // Column-major storage: column j is the j-th chunk of `rows` values.
+            for (column, &vj) in mat.as_slice().chunks_exact(rows).zip(v) {
+                for (o, &a) in out.iter_mut().zip(column) {
                     *o += a * vj;
                 }
             }
