@@ -185,9 +185,8 @@ pub fn run(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
             // A file that cannot be read goes to the record reader, whose
             // message names it as for every other file (and as the Python
             // package's `read_records` does).
-            let frf = std::fs::read(first).is_ok_and(|bytes| {
-                records::frf::content_kind(&bytes) == records::frf::ContentKind::Frf
-            });
+            let frf = records::frf::read_content_kind(first)
+                .is_ok_and(|kind| kind == records::frf::ContentKind::Frf);
             check_route_flags(args, first, frf)?;
             if frf {
                 return identify_frfs(args, out);
