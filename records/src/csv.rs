@@ -259,18 +259,44 @@ impl<R: BufRead> Lines<R> {
 
 /// Byte ranges of the cells of a line without quotes, split at `delim`
 /// (an ASCII byte, so never part of a multi-byte character), into `out`
-/// (cleared first); untrimmed. A byte loop: cells are short, a `memchr`
-/// call per cell costs more than it saves.
+/// (cleared first); untrimmed. Eight bytes at a time: the delimiters of a
+/// word are the zero bytes of `word ^ [delim; 8]`, found exactly (no carry
+/// between bytes) as the high bits of `!(((x & 0x7f..) + 0x7f..) | x | 0x7f..)`.
 fn cell_ranges(text: &str, delim: u8, out: &mut Vec<(usize, usize)>) {
+    const LOW7: u64 = 0x7f7f_7f7f_7f7f_7f7f;
     out.clear();
+    let bytes = text.as_bytes();
+    let pattern = u64::from_le_bytes([delim; 8]);
     let mut start = 0;
-    for (i, &b) in text.as_bytes().iter().enumerate() {
+    let mut chunks = bytes.chunks_exact(8);
+    let mut base = 0;
+    for chunk in &mut chunks {
+        let word = u64::from_le_bytes(chunk.try_into().expect("chunks of 8 bytes")) ^ pattern;
+        let mut found = !(((word & LOW7) + LOW7) | word | LOW7);
+        while found != 0 {
+            let at = base + (found.trailing_zeros() / 8) as usize;
+            out.push((start, at));
+            start = at + 1;
+            found &= found - 1;
+        }
+        base += 8;
+    }
+    for (i, &b) in chunks.remainder().iter().enumerate() {
         if b == delim {
-            out.push((start, i));
-            start = i + 1;
+            out.push((start, base + i));
+            start = base + i + 1;
         }
     }
-    out.push((start, text.len()));
+    out.push((start, bytes.len()));
+}
+
+/// `cell.trim()`, without its character scan when both ends are visible
+/// ASCII (then there is nothing to trim).
+fn trim_cell(cell: &str) -> &str {
+    match (cell.as_bytes().first(), cell.as_bytes().last()) {
+        (Some(a), Some(b)) if a.is_ascii_graphic() && b.is_ascii_graphic() => cell,
+        _ => cell.trim(),
+    }
 }
 
 /// The text of `cell` as a number: with `decimal_comma`, a cell with no
@@ -446,7 +472,7 @@ fn parse_lines<R: BufRead>(
         } else {
             // The cells of `text.split(delim)`, trimmed, as `row_cells` takes them.
             cell_ranges(&text, delim as u8, &mut ranges);
-            let cell = |&(a, b): &(usize, usize)| text[a..b].trim();
+            let cell = |&(a, b): &(usize, usize)| trim_cell(&text[a..b]);
             if trailing_delimiter && ranges.len() == ncols + 1 && cell(&ranges[ncols]).is_empty() {
                 ranges.pop();
             }
@@ -984,6 +1010,34 @@ mod tests {
             )
         ) {
             same_as_oracle(&bytes, &ReadOptions::default());
+        }
+    }
+
+    #[test]
+    fn cell_ranges_are_those_of_split() {
+        let mut ranges = Vec::new();
+        let lines = [
+            "",
+            ",",
+            "a",
+            "1,2,3",
+            ",,,,,,,,,,,,,,,,,",
+            "0.015625,9.602407567597727e-6,-0.00034238609177977873,-0.0005255027613384333",
+            " \u{a0}x\u{2003} ;é;;\t;1,5;",
+            "12345678,",
+            ",12345678",
+            "1234567,9abcdefg,ijklmnop,",
+        ];
+        for line in lines {
+            for delim in [',', ';', '\t'] {
+                cell_ranges(line, delim as u8, &mut ranges);
+                let got: Vec<&str> = ranges.iter().map(|&(a, b)| &line[a..b]).collect();
+                let want: Vec<&str> = line.split(delim).collect();
+                assert_eq!(got, want, "{line:?} split at {delim:?}");
+                let trimmed: Vec<&str> = got.iter().map(|c| trim_cell(c)).collect();
+                let want: Vec<&str> = want.iter().map(|c| c.trim()).collect();
+                assert_eq!(trimmed, want, "{line:?}");
+            }
         }
     }
 
