@@ -245,7 +245,13 @@ fn identify_records(args: &IdentifyArgs, modes: ident::ModeSelection) -> Result<
     if args.files.is_empty() {
         bail!("no record files given");
     }
-    let (files, campaign) = load_campaign(&args.select, &args.files)?;
+    let (mut files, campaign) = load_campaign(&args.select, &args.files)?;
+    // The samples are in the campaign now; the files stay for what the
+    // messages and the export take from them (channel names, nodes, lines,
+    // sampling), so a long record's samples are not held twice.
+    for channel in files.iter_mut().flat_map(|f| f.channels.iter_mut()) {
+        channel.values = Vec::new();
+    }
     let collocated = match &args.collocated {
         Some(text) => parse_collocated(text, &campaign.outputs, &campaign.inputs)?,
         None => (0, 0),
