@@ -933,7 +933,7 @@ mod tests {
                         out.push('\u{feff}');
                     }
                     for _ in 0..blank_before {
-                        out.push_str(" ");
+                        out.push(' ');
                         out.push_str(eol);
                     }
                     let mut header: Vec<String> = Vec::new();
