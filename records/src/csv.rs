@@ -1,9 +1,10 @@
 //! Delimited text records: a header row of channel names, one row per
 //! sample, optionally a leading time column.
 
+use std::io::{BufRead, Read};
 use std::path::Path;
 
-use crate::error::{Location, Problem, RecordError};
+use crate::error::{IoOp, Location, Problem, RecordError};
 use crate::numfmt::{self, NumError};
 use crate::record::{Channel, Format, ReadOptions, RecordFile, SampleLines};
 use crate::timeaxis::{self, AxisError, PrintModel};
@@ -204,33 +205,166 @@ fn is_blank(line: &[u8]) -> bool {
     line.iter().all(|b| b.is_ascii_whitespace())
 }
 
+/// Bytes at the start of the input examined before its lines: a byte-order
+/// mark and the first 8192 bytes after it (a NUL there is binary content).
+const HEAD_BYTES: u64 = 8192 + BOM.len() as u64;
+
 /// Parses a CSV record held in memory; `path` is used in messages only.
+/// The same reader as [`parse_csv_from`], with every column reserved to
+/// the file's line count up front.
 pub fn parse_csv(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<RecordFile, RecordError> {
+    // Every data row is a line: reserving that many values up front keeps
+    // long records from growing every column by doubling.
+    let rows_bound = bytes.iter().filter(|&&b| b == b'\n').count() + 1;
+    parse_lines(bytes, path, opts, rows_bound)
+}
+
+/// Reads a CSV record from `input` line by line (one line buffer, reused;
+/// the values go straight into their columns), with the same checks,
+/// messages and values as [`parse_csv`] on the whole content: the file is
+/// never held in memory. `path` is used in messages only; an error while
+/// reading is [`RecordError::Io`].
+pub fn parse_csv_from<R: BufRead>(
+    input: R,
+    path: &Path,
+    opts: &ReadOptions,
+) -> Result<RecordFile, RecordError> {
+    parse_lines(input, path, opts, 0)
+}
+
+/// Lines of the input, numbered from 1, without the `\n` and one `\r`
+/// before it: the lines of splitting the content at every `\n` (but for
+/// the empty line after a final `\n`, which is blank and so changes
+/// nothing).
+struct Lines<R> {
+    input: R,
+    buf: Vec<u8>,
+    number: usize,
+}
+
+impl<R: BufRead> Lines<R> {
+    fn next(&mut self) -> std::io::Result<Option<(usize, &[u8])>> {
+        self.buf.clear();
+        if self.input.read_until(b'\n', &mut self.buf)? == 0 {
+            return Ok(None);
+        }
+        self.number += 1;
+        let line = self.buf.strip_suffix(b"\n").unwrap_or(&self.buf);
+        Ok(Some((
+            self.number,
+            line.strip_suffix(b"\r").unwrap_or(line),
+        )))
+    }
+}
+
+/// Byte ranges of the cells of a line without quotes, split at `delim`
+/// (an ASCII byte, so never part of a multi-byte character), into `out`
+/// (cleared first); untrimmed. Eight bytes at a time: the delimiters of a
+/// word are the zero bytes of `word ^ [delim; 8]`, found exactly (no carry
+/// between bytes) as the high bits of `!(((x & 0x7f..) + 0x7f..) | x | 0x7f..)`.
+fn cell_ranges(text: &str, delim: u8, out: &mut Vec<(usize, usize)>) {
+    const LOW7: u64 = 0x7f7f_7f7f_7f7f_7f7f;
+    out.clear();
+    let bytes = text.as_bytes();
+    let pattern = u64::from_le_bytes([delim; 8]);
+    let mut start = 0;
+    let mut chunks = bytes.chunks_exact(8);
+    let mut base = 0;
+    for chunk in &mut chunks {
+        let word = u64::from_le_bytes(chunk.try_into().expect("chunks of 8 bytes")) ^ pattern;
+        let mut found = !(((word & LOW7) + LOW7) | word | LOW7);
+        while found != 0 {
+            let at = base + (found.trailing_zeros() / 8) as usize;
+            out.push((start, at));
+            start = at + 1;
+            found &= found - 1;
+        }
+        base += 8;
+    }
+    for (i, &b) in chunks.remainder().iter().enumerate() {
+        if b == delim {
+            out.push((start, base + i));
+            start = base + i + 1;
+        }
+    }
+    out.push((start, bytes.len()));
+}
+
+/// `cell.trim()`, without its character scan when both ends are visible
+/// ASCII (then there is nothing to trim).
+fn trim_cell(cell: &str) -> &str {
+    match (cell.as_bytes().first(), cell.as_bytes().last()) {
+        (Some(a), Some(b)) if a.is_ascii_graphic() && b.is_ascii_graphic() => cell,
+        _ => cell.trim(),
+    }
+}
+
+/// The text of `cell` as a number: with `decimal_comma`, a cell with no
+/// point and one comma is read with the comma as the point (the converted
+/// text is written into `scratch`).
+fn number_text<'a>(cell: &'a str, decimal_comma: bool, scratch: &'a mut String) -> &'a str {
+    if decimal_comma && !cell.contains('.') && cell.matches(',').count() == 1 {
+        scratch.clear();
+        scratch.extend(cell.chars().map(|c| if c == ',' { '.' } else { c }));
+        scratch
+    } else {
+        cell
+    }
+}
+
+/// The problem of a cell that is not a usable number.
+fn number_problem(e: NumError, cell: &str) -> Problem {
+    let text = cell.to_string();
+    match e {
+        NumError::Empty => Problem::EmptyCell,
+        NumError::NotANumber => Problem::NonNumeric { text },
+        NumError::NonFinite => Problem::NonFinite { text },
+    }
+}
+
+/// The reader behind [`parse_csv`] and [`parse_csv_from`]; every column is
+/// reserved to `rows_hint` values.
+fn parse_lines<R: BufRead>(
+    mut input: R,
+    path: &Path,
+    opts: &ReadOptions,
+    rows_hint: usize,
+) -> Result<RecordFile, RecordError> {
     opts.validate()?;
     let err = |at: Location, problem: Problem| parse_error(path, at, problem);
-    if bytes.starts_with(b"\xFF\xFE") || bytes.starts_with(b"\xFE\xFF") {
+    let io = |error| RecordError::Io {
+        path: path.to_path_buf(),
+        op: IoOp::Read,
+        error,
+    };
+    let mut head = Vec::with_capacity(HEAD_BYTES as usize);
+    (&mut input)
+        .take(HEAD_BYTES)
+        .read_to_end(&mut head)
+        .map_err(io)?;
+    if head.starts_with(b"\xFF\xFE") || head.starts_with(b"\xFE\xFF") {
         return Err(err(Location::default(), Problem::Utf16));
     }
-    let body = bytes.strip_prefix(BOM).unwrap_or(bytes);
-    if body.iter().take(8192).any(|&b| b == 0) {
+    let bom = if head.starts_with(BOM) { BOM.len() } else { 0 };
+    if head[bom..].iter().take(8192).any(|&b| b == 0) {
         return Err(err(Location::default(), Problem::NotText));
     }
-
-    let mut lines = body
-        .split(|&b| b == b'\n')
-        .map(|l| l.strip_suffix(b"\r").unwrap_or(l))
-        .enumerate()
-        .map(|(i, l)| (i + 1, l));
+    let mut head = std::io::Cursor::new(head);
+    head.set_position(bom as u64);
+    let mut lines = Lines {
+        input: head.chain(input),
+        buf: Vec::new(),
+        number: 0,
+    };
 
     // Header: the first non-blank line.
-    let (header_line, header_bytes) = loop {
-        match lines.next() {
+    let (header_line, header_text) = loop {
+        match lines.next().map_err(io)? {
             None => return Err(err(Location::default(), Problem::EmptyFile)),
-            Some((n, l)) if !is_blank(l) => break (n, l),
+            Some((n, l)) if !is_blank(l) => break (n, String::from_utf8_lossy(l).into_owned()),
             Some(_) => {}
         }
     };
-    let header_text = String::from_utf8_lossy(header_bytes);
     let delim = detect_delimiter(&header_text);
     let mut names: Vec<String> = split_line(&header_text, delim)
         .map_err(|col| {
@@ -288,18 +422,17 @@ pub fn parse_csv(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<Record
 
     // Data rows.
     let decimal_comma = delim != ',';
-    // Every data row is a line: reserving that many values up front keeps long records
-    // from growing (and copying) every column by doubling, which at 10^6 rows held up to
-    // twice the columns' memory at once.
-    let rows_bound = body.iter().filter(|&&b| b == b'\n').count() + 1;
-    let mut time: Vec<f64> = Vec::with_capacity(if time_scale.is_some() { rows_bound } else { 0 });
+    let mut time: Vec<f64> = Vec::with_capacity(if time_scale.is_some() { rows_hint } else { 0 });
     for c in &mut channels {
-        c.values.reserve_exact(rows_bound);
+        c.values.reserve_exact(rows_hint);
     }
     let mut time_model = PrintModel::printed();
     let mut first_data_line = None;
     let mut pending_blank: Option<usize> = None;
-    for (n, raw) in lines {
+    // Reused by every row: cell ranges, and the text of a decimal-comma cell.
+    let mut ranges: Vec<(usize, usize)> = Vec::with_capacity(ncols + 1);
+    let mut scratch = String::new();
+    while let Some((n, raw)) = lines.next().map_err(io)? {
         if is_blank(raw) {
             pending_blank.get_or_insert(n);
             continue;
@@ -314,19 +447,46 @@ pub fn parse_csv(bytes: &[u8], path: &Path, opts: &ReadOptions) -> Result<Record
             Ok(valid) => std::borrow::Cow::Borrowed(valid),
             Err(_) => String::from_utf8_lossy(raw),
         };
-        let cells = row_cells(&text, delim, n, ncols, trailing_delimiter, &err)?;
-        for (col, cell) in cells.iter().enumerate() {
-            let (value, s) = cell_value(
-                cell,
-                decimal_comma,
-                || Location::cell(n, col + 1, &names[col]),
-                &err,
-            )?;
+        let mut push = |col: usize, cell: &str| -> Result<(), RecordError> {
+            let s = number_text(cell, decimal_comma, &mut scratch);
+            let value = numfmt::parse_decimal(s).map_err(|e| {
+                err(
+                    Location::cell(n, col + 1, &names[col]),
+                    number_problem(e, cell),
+                )
+            })?;
             if col < first_channel_col {
-                time_model.observe(numfmt::printed_precision(&s));
+                time_model.observe(numfmt::printed_precision(s));
                 time.push(value);
             } else {
                 channels[col - first_channel_col].values.push(value);
+            }
+            Ok(())
+        };
+        if text.contains('"') {
+            // Quoted cells (rare in data rows): the general splitter.
+            let cells = row_cells(&text, delim, n, ncols, trailing_delimiter, &err)?;
+            for (col, cell) in cells.iter().enumerate() {
+                push(col, cell)?;
+            }
+        } else {
+            // The cells of `text.split(delim)`, trimmed, as `row_cells` takes them.
+            cell_ranges(&text, delim as u8, &mut ranges);
+            let cell = |&(a, b): &(usize, usize)| trim_cell(&text[a..b]);
+            if trailing_delimiter && ranges.len() == ncols + 1 && cell(&ranges[ncols]).is_empty() {
+                ranges.pop();
+            }
+            if ranges.len() != ncols {
+                return Err(err(
+                    Location::line(n),
+                    Problem::RaggedRow {
+                        expected: ncols,
+                        found: ranges.len(),
+                    },
+                ));
+            }
+            for (col, range) in ranges.iter().enumerate() {
+                push(col, cell(range))?;
             }
         }
     }
@@ -507,6 +667,10 @@ pub(crate) fn render_csv(rec: &RecordFile) -> String {
 }
 
 #[cfg(test)]
+#[path = "csv_oracle.rs"]
+mod oracle;
+
+#[cfg(test)]
 mod tests {
     use super::*;
 
@@ -546,6 +710,335 @@ mod tests {
         assert_eq!(detect_delimiter("time\tforce\tacc1"), '\t');
         assert_eq!(detect_delimiter("\"a;b\",c"), ',');
         assert_eq!(detect_delimiter("force"), ',');
+    }
+
+    /// Reads `text` with the streaming reader through a buffer of `cap`
+    /// bytes (lines then cross the buffer's refills).
+    fn stream(text: &[u8], cap: usize) -> Result<RecordFile, RecordError> {
+        parse_csv_from(
+            std::io::BufReader::with_capacity(cap, text),
+            Path::new("hit.csv"),
+            &ReadOptions::default(),
+        )
+    }
+
+    /// The outcome as text: values in their shortest round-trip form (bit
+    /// for bit, -0.0 included), errors with problem and location.
+    fn outcome(r: &Result<RecordFile, RecordError>) -> String {
+        format!("{r:?}")
+    }
+
+    /// The streaming reader (whole content, and through small buffers)
+    /// against the former in-memory reader.
+    fn same_as_oracle(text: &[u8], opts: &ReadOptions) {
+        let path = Path::new("hit.csv");
+        let want = outcome(&oracle::parse_csv_oracle(text, path, opts));
+        assert_eq!(outcome(&parse_csv(text, path, opts)), want, "parse_csv");
+        for cap in [1, 7, 64, 8192] {
+            let got = parse_csv_from(std::io::BufReader::with_capacity(cap, text), path, opts);
+            assert_eq!(outcome(&got), want, "parse_csv_from, buffer {cap}");
+        }
+    }
+
+    fn problem(r: Result<RecordFile, RecordError>) -> (Problem, Location) {
+        match r {
+            Err(RecordError::Parse { problem, at, .. }) => (problem, *at),
+            other => panic!("expected a parse error, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn streaming_reads_values_bit_for_bit() {
+        let text = "time [s],force [N],acc1\n0,-0.0,1e-3\n0.5,2.5, 7 \n1.0,-1.25E+2,3\n";
+        let r = stream(text.as_bytes(), 3).unwrap();
+        assert_eq!(r.dt_s, 0.5);
+        assert_eq!(r.channels[0].values[0].to_bits(), (-0.0f64).to_bits());
+        assert_eq!(r.channels[0].values[2], -125.0);
+        assert_eq!(r.channels[1].values, [1e-3, 7.0, 3.0]);
+        assert_eq!(
+            r.channels[0].lines,
+            Some(SampleLines::Rows { first_line: 2 })
+        );
+        same_as_oracle(text.as_bytes(), &ReadOptions::default());
+    }
+
+    #[test]
+    fn streaming_error_cases_name_line_and_column() {
+        // Ragged row, before any bad number of the same row.
+        let (p, at) = problem(stream(b"time,force,acc1\n0,1,2\n0.1,x\n", 5));
+        assert_eq!(
+            p,
+            Problem::RaggedRow {
+                expected: 3,
+                found: 2
+            }
+        );
+        assert_eq!(at, Location::line(3));
+        // Bad number, empty cell, non-finite value.
+        let (p, at) = problem(stream(b"time,force,acc1\n0,1,2\n0.1,2,abc\n", 5));
+        assert_eq!(p, Problem::NonNumeric { text: "abc".into() });
+        assert_eq!(at, Location::cell(3, 3, "acc1"));
+        let (p, at) = problem(stream(b"time,force\n0,1\n0.1, \n", 5));
+        assert_eq!(p, Problem::EmptyCell);
+        assert_eq!(at, Location::cell(3, 2, "force"));
+        let (p, _) = problem(stream(b"time,force\n0,1\n0.1,inf\n", 5));
+        assert_eq!(p, Problem::NonFinite { text: "inf".into() });
+        // Time not increasing, named at its line.
+        let (p, at) = problem(stream(b"time,force\n0,1\n0.2,1\n0.1,1\n", 5));
+        assert!(matches!(p, Problem::TimeNotIncreasing { .. }), "{p:?}");
+        assert_eq!(at, Location::cell(4, 1, "time"));
+        // Empty input, blank input, header only.
+        assert_eq!(problem(stream(b"", 5)).0, Problem::EmptyFile);
+        assert_eq!(problem(stream(b" \r\n\n\t\n", 5)).0, Problem::EmptyFile);
+        let (p, at) = problem(stream(b"\n\ntime,force\r\n\r\n", 5));
+        assert_eq!(p, Problem::HeaderOnly);
+        assert_eq!(at, Location::line(3));
+        // A blank line inside the data.
+        let (p, at) = problem(stream(b"time,force\n0,1\n\n0.1,1\n", 5));
+        assert_eq!(p, Problem::BlankLine);
+        assert_eq!(at, Location::line(3));
+        // Unterminated quote in a row.
+        let (p, at) = problem(stream(b"time,force\n0,\"1\n", 5));
+        assert_eq!(p, Problem::UnterminatedQuote);
+        assert_eq!(at.line, Some(2));
+        // UTF-16 and binary content are judged from the first bytes.
+        assert_eq!(problem(stream(b"\xFF\xFEt\0", 2)).0, Problem::Utf16);
+        let mut binary = b"time,force\n0,1\n".to_vec();
+        binary.push(0);
+        assert_eq!(problem(stream(&binary, 2)).0, Problem::NotText);
+    }
+
+    #[test]
+    fn streaming_header_forms() {
+        // BOM, CRLF, decimal commas, a trailing delimiter on every line,
+        // quoted header cells, a quoted data cell, milliseconds.
+        let text = "\u{feff}\r\n\"t [ms]\";\"acc; 1 [g]\";force;\r\n\
+                    0,0;\"1,5\";2;\r\n1,0; -0,5 ;3;\r\n\r\n";
+        let r = stream(text.as_bytes(), 4).unwrap();
+        assert_eq!(r.format, Format::Csv { delimiter: b';' });
+        assert_eq!(r.dt_s, 1e-3);
+        assert_eq!(r.channels[0].name, "acc; 1");
+        assert_eq!(r.channels[0].values, [1.5, -0.5]);
+        assert_eq!(r.channels[1].values, [2.0, 3.0]);
+        assert_eq!(
+            r.channels[0].lines,
+            Some(SampleLines::Rows { first_line: 3 })
+        );
+        same_as_oracle(text.as_bytes(), &ReadOptions::default());
+        // No time column: the rate comes from the options.
+        let r = parse_csv_from(
+            &b"force\n1\n2\n"[..],
+            Path::new("h.csv"),
+            &ReadOptions::with_fs_hz(4.0),
+        )
+        .unwrap();
+        assert_eq!((r.dt_s, r.start_s), (0.25, 0.0));
+    }
+
+    #[test]
+    fn streaming_read_error_names_the_file() {
+        /// Gives `ok` bytes of a valid file, then fails.
+        struct Failing {
+            data: std::io::Cursor<Vec<u8>>,
+        }
+        impl Read for Failing {
+            fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+                match self.data.read(buf)? {
+                    0 => Err(std::io::Error::other("device gone")),
+                    k => Ok(k),
+                }
+            }
+        }
+        let mut text = String::from("time,force\n");
+        for i in 0..3000 {
+            text.push_str(&format!("{i},1\n"));
+        }
+        let input = std::io::BufReader::with_capacity(
+            16,
+            Failing {
+                data: std::io::Cursor::new(text.into_bytes()),
+            },
+        );
+        match parse_csv_from(input, Path::new("hit.csv"), &ReadOptions::default()) {
+            Err(e @ RecordError::Io { .. }) => {
+                assert_eq!(e.to_string(), "hit.csv: cannot read the file: device gone")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn streaming_long_file_crosses_the_head() {
+        // Longer than the bytes examined first: lines cross from the head
+        // into the rest of the input.
+        let mut text = String::from("time,force,acc1\n");
+        for i in 0..3000 {
+            text.push_str(&format!(
+                "{},{},{}\n",
+                i as f64 / 64.0,
+                i % 7,
+                -(i as f64) * 1e-3
+            ));
+        }
+        assert!(text.len() as u64 > 3 * HEAD_BYTES);
+        same_as_oracle(text.as_bytes(), &ReadOptions::default());
+        let r = stream(text.as_bytes(), 8192).unwrap();
+        assert_eq!(r.len(), 3000);
+        assert_eq!(r.dt_s, 1.0 / 64.0);
+    }
+
+    use proptest::prelude::*;
+
+    /// One number as writers print it.
+    fn number() -> impl Strategy<Value = String> {
+        prop_oneof![
+            (-1e6f64..1e6).prop_map(|v| format!("{v}")),
+            (-1e3f64..1e3, 0usize..9).prop_map(|(v, d)| format!("{v:.d$}")),
+            (-1e-3f64..1e-3).prop_map(|v| format!("{v:e}")),
+            (-1e9f64..1e9).prop_map(|v| format!("{v:.5E}")),
+            (-99i64..99).prop_map(|v| v.to_string()),
+        ]
+    }
+
+    /// A CSV file: random delimiter, time column (or none), channels,
+    /// line ends, blank lines and padding, occasionally damaged.
+    fn csv_file() -> impl Strategy<Value = Vec<u8>> {
+        (
+            (
+                0usize..3,
+                0usize..4,
+                1usize..4,
+                any::<bool>(),
+                any::<bool>(),
+            ),
+            (any::<bool>(), any::<bool>(), 0usize..3, any::<bool>()),
+            proptest::collection::vec(proptest::collection::vec(number(), 4), 0..40),
+            (
+                prop_oneof![Just(64u32), Just(100), Just(512), Just(1000), 1u32..2000],
+                0usize..4,
+                proptest::option::weighted(0.2, (0usize..4000, any::<u8>())),
+            ),
+        )
+            .prop_map(
+                |(
+                    (d, time, nch, crlf, trailing),
+                    (bom, quote_header, blank_before, pad),
+                    rows,
+                    (rate, digits, damage),
+                )| {
+                    let delim = [',', ';', '\t'][d];
+                    let eol = if crlf { "\r\n" } else { "\n" };
+                    let mut out = String::new();
+                    if bom {
+                        out.push('\u{feff}');
+                    }
+                    for _ in 0..blank_before {
+                        out.push(' ');
+                        out.push_str(eol);
+                    }
+                    let mut header: Vec<String> = Vec::new();
+                    let time_name = ["", "time", "t [ms]", "Time (s)"][time];
+                    if !time_name.is_empty() {
+                        header.push(time_name.to_string());
+                    }
+                    for c in 0..nch {
+                        let name = format!("acc{c} [m/s^2]");
+                        header.push(if quote_header {
+                            format!("\"{name}\"")
+                        } else {
+                            name
+                        });
+                    }
+                    out.push_str(&header.join(&delim.to_string()));
+                    if trailing {
+                        out.push(delim);
+                    }
+                    out.push_str(eol);
+                    for (i, row) in rows.iter().enumerate() {
+                        let mut cells: Vec<String> = Vec::new();
+                        if !time_name.is_empty() {
+                            let t = i as f64 / f64::from(rate);
+                            cells.push(format!("{t:.digits$}", digits = 6 + digits));
+                        }
+                        for v in row.iter().take(nch) {
+                            cells.push(if delim != ',' && i % 3 == 0 {
+                                v.replacen('.', ",", 1)
+                            } else if pad {
+                                format!(" {v} ")
+                            } else {
+                                v.clone()
+                            });
+                        }
+                        if i % 11 == 5 {
+                            cells[0] = format!("\"{}\"", cells[0]);
+                        }
+                        out.push_str(&cells.join(&delim.to_string()));
+                        if trailing {
+                            out.push(delim);
+                        }
+                        out.push_str(eol);
+                    }
+                    let mut bytes = out.into_bytes();
+                    if let Some((at, b)) = damage
+                        && !bytes.is_empty()
+                    {
+                        let at = at % bytes.len();
+                        bytes[at] = b;
+                    }
+                    bytes
+                },
+            )
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(400))]
+
+        #[test]
+        fn streaming_reader_agrees_with_the_former_reader(bytes in csv_file()) {
+            same_as_oracle(&bytes, &ReadOptions::default());
+            same_as_oracle(&bytes, &ReadOptions::with_fs_hz(1000.0));
+        }
+
+        #[test]
+        fn streaming_reader_agrees_on_any_bytes(
+            bytes in proptest::collection::vec(
+                prop_oneof![
+                    Just(b','), Just(b';'), Just(b'\n'), Just(b'\r'), Just(b'"'), Just(b' '),
+                    Just(b'1'), Just(b'.'), Just(b'e'), Just(b't'), any::<u8>()
+                ],
+                0..300,
+            )
+        ) {
+            same_as_oracle(&bytes, &ReadOptions::default());
+        }
+    }
+
+    #[test]
+    fn cell_ranges_are_those_of_split() {
+        let mut ranges = Vec::new();
+        let lines = [
+            "",
+            ",",
+            "a",
+            "1,2,3",
+            ",,,,,,,,,,,,,,,,,",
+            "0.015625,9.602407567597727e-6,-0.00034238609177977873,-0.0005255027613384333",
+            " \u{a0}x\u{2003} ;é;;\t;1,5;",
+            "12345678,",
+            ",12345678",
+            "1234567,9abcdefg,ijklmnop,",
+        ];
+        for line in lines {
+            for delim in [',', ';', '\t'] {
+                cell_ranges(line, delim as u8, &mut ranges);
+                let got: Vec<&str> = ranges.iter().map(|&(a, b)| &line[a..b]).collect();
+                let want: Vec<&str> = line.split(delim).collect();
+                assert_eq!(got, want, "{line:?} split at {delim:?}");
+                let trimmed: Vec<&str> = got.iter().map(|c| trim_cell(c)).collect();
+                let want: Vec<&str> = want.iter().map(|c| c.trim()).collect();
+                assert_eq!(trimmed, want, "{line:?}");
+            }
+        }
     }
 
     #[test]

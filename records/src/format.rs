@@ -8,6 +8,7 @@
 //! to [`FORMATS`] before the CSV fallback, and give it a [`Format`] variant
 //! (see CONTRIBUTING.md).
 
+use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
 use crate::csv;
@@ -37,6 +38,25 @@ pub trait FileFormat: Sync {
     /// The bytes of `rec` in this format; refuses a record that would not
     /// read back unchanged (the error names `rec.path`).
     fn encode(&self, rec: &RecordFile) -> Result<Vec<u8>, RecordError>;
+
+    /// Reads a whole file from `input`, with the same result as [`read`]
+    /// on its content; [`read_record`] calls it once `detect` has accepted
+    /// the file's start. The default reads the input into memory and calls
+    /// [`read`]; a format that can parse as it reads (CSV) does so.
+    ///
+    /// [`read`]: FileFormat::read
+    fn read_from(
+        &self,
+        input: &mut dyn BufRead,
+        path: &Path,
+        opts: &ReadOptions,
+    ) -> Result<RecordFile, RecordError> {
+        let mut bytes = Vec::new();
+        input
+            .read_to_end(&mut bytes)
+            .map_err(|error| read_error(path, error))?;
+        self.read(&bytes, path, opts)
+    }
 }
 
 /// Delimited text (CSV): a header of channel names, optionally a time column.
@@ -68,6 +88,15 @@ impl FileFormat for Csv {
         opts: &ReadOptions,
     ) -> Result<RecordFile, RecordError> {
         csv::parse_csv(bytes, path, opts)
+    }
+
+    fn read_from(
+        &self,
+        input: &mut dyn BufRead,
+        path: &Path,
+        opts: &ReadOptions,
+    ) -> Result<RecordFile, RecordError> {
+        csv::parse_csv_from(input, path, opts)
     }
 
     fn encode(&self, rec: &RecordFile) -> Result<Vec<u8>, RecordError> {
@@ -138,21 +167,25 @@ pub fn parse_record(
     detect(bytes).read(bytes, path, opts)
 }
 
-/// Largest record file read, bytes. A file is read whole and its samples
-/// are held as doubles: 2 GiB of text is about 100 million values (a
-/// 10^6-sample record of 100 channels), far beyond any hammer or shaker
-/// record of a building model.
+/// Largest record file read, bytes. A record's samples are held as
+/// doubles (and a UFF file is read whole): 2 GiB of text is about 100
+/// million values (a 10^6-sample record of 100 channels), far beyond any
+/// hammer or shaker record of a building model.
 pub const MAX_FILE_BYTES: u64 = 2 << 30;
 
-/// Reads a whole file, refusing one larger than [`MAX_FILE_BYTES`] before
-/// reading it.
-pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>, RecordError> {
-    let io = |error| RecordError::Io {
+fn read_error(path: &Path, error: std::io::Error) -> RecordError {
+    RecordError::Io {
         path: path.to_path_buf(),
         op: IoOp::Read,
         error,
-    };
-    let len = std::fs::metadata(path).map_err(io)?.len();
+    }
+}
+
+/// Refuses a file larger than [`MAX_FILE_BYTES`] before it is read.
+fn check_size(path: &Path) -> Result<(), RecordError> {
+    let len = std::fs::metadata(path)
+        .map_err(|e| read_error(path, e))?
+        .len();
     if len > MAX_FILE_BYTES {
         return Err(RecordError::TooLarge {
             path: path.to_path_buf(),
@@ -160,14 +193,96 @@ pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>, RecordError> {
             limit: MAX_FILE_BYTES,
         });
     }
-    std::fs::read(path).map_err(io)
+    Ok(())
 }
 
-/// Reads a record file of any known format.
+/// Reads a whole file, refusing one larger than [`MAX_FILE_BYTES`] before
+/// reading it.
+pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>, RecordError> {
+    check_size(path)?;
+    std::fs::read(path).map_err(|e| read_error(path, e))
+}
+
+/// Bytes read from the start of a file before the rest: enough for the
+/// first line of any record file (format detection looks at the first
+/// non-blank line).
+const HEAD_BYTES: u64 = 64 * 1024;
+
+/// The start of a file, and the reader positioned after it.
+pub(crate) struct Head {
+    /// The first bytes of the file (all of it if `complete`).
+    pub bytes: Vec<u8>,
+    /// The rest of the file.
+    pub rest: BufReader<std::fs::File>,
+    /// Whether `bytes` hold the whole file.
+    pub complete: bool,
+}
+
+impl Head {
+    /// Opens `path` (refusing a file larger than [`MAX_FILE_BYTES`]) and
+    /// reads its first [`HEAD_BYTES`].
+    pub(crate) fn read(path: &Path) -> Result<Self, RecordError> {
+        check_size(path)?;
+        let io = |e| read_error(path, e);
+        let file = std::fs::File::open(path).map_err(io)?;
+        let mut rest = BufReader::with_capacity(HEAD_BYTES as usize, file);
+        let mut bytes = Vec::with_capacity(HEAD_BYTES as usize);
+        (&mut rest)
+            .take(HEAD_BYTES)
+            .read_to_end(&mut bytes)
+            .map_err(io)?;
+        let complete = (bytes.len() as u64) < HEAD_BYTES;
+        Ok(Self {
+            bytes,
+            rest,
+            complete,
+        })
+    }
+
+    /// Whether the first non-blank line (after a byte-order mark) is
+    /// whole in `bytes`: then everything judged from it (the format, time
+    /// record or FRF) is judged as from the whole file.
+    pub(crate) fn first_line_whole(&self) -> bool {
+        if self.complete {
+            return true;
+        }
+        let body = self
+            .bytes
+            .strip_prefix(b"\xEF\xBB\xBF")
+            .unwrap_or(&self.bytes);
+        let mut segments = body.split(|&b| b == b'\n');
+        // The last segment has no `\n` after it: it may go on in the file.
+        let _ = segments.next_back();
+        segments.any(|l| !l.trim_ascii().is_empty())
+    }
+
+    /// The whole file in memory.
+    pub(crate) fn into_bytes(mut self, path: &Path) -> Result<Vec<u8>, RecordError> {
+        if !self.complete {
+            self.rest
+                .read_to_end(&mut self.bytes)
+                .map_err(|e| read_error(path, e))?;
+        }
+        Ok(self.bytes)
+    }
+}
+
+/// Reads a record file of any known format. The format is recognised from
+/// the file's first lines, then the file is read by the format's
+/// [`FileFormat::read_from`]: CSV as it is parsed, without holding the
+/// file's text in memory.
 pub fn read_record(path: &Path, opts: &ReadOptions) -> Result<RecordFile, RecordError> {
     opts.validate()?;
-    let bytes = read_bytes(path)?;
-    parse_record(&bytes, path, opts)
+    let head = Head::read(path)?;
+    if !head.first_line_whole() {
+        // A first line longer than the head (or a head of blank lines):
+        // recognised from the whole content.
+        let bytes = head.into_bytes(path)?;
+        return parse_record(&bytes, path, opts);
+    }
+    let format = detect(&head.bytes);
+    let mut input = std::io::Cursor::new(head.bytes).chain(head.rest);
+    format.read_from(&mut input, path, opts)
 }
 
 /// Relative tolerance on the sampling interval of records of one campaign:

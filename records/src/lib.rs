@@ -91,7 +91,7 @@ mod uff;
 pub mod units;
 mod write;
 
-pub use crate::csv::parse_csv;
+pub use crate::csv::{parse_csv, parse_csv_from};
 pub use crate::error::{CampaignMismatch, IoOp, Location, Problem, RecordError};
 pub use crate::format::{
     CAMPAIGN_DT_REL_TOL, Csv, FORMATS, FileFormat, MAX_FILE_BYTES, Uff58, check_campaign, detect,
@@ -99,7 +99,7 @@ pub use crate::format::{
 };
 pub use crate::frf::{
     AssembleOptions, ContentKind, FrfFile, FrfFormat, FrfPair, FrfPoint, FrfReadOptions, FrfSet,
-    content_kind, encode_frf, parse_frf, read_frf, write_frf,
+    content_kind, encode_frf, parse_frf, read_content_kind, read_frf, write_frf,
 };
 pub use crate::record::{Channel, Format, ReadOptions, RecordFile, SampleLines};
 pub use crate::select::select;

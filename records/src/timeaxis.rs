@@ -98,6 +98,67 @@ impl PrintModel {
     }
 }
 
+/// [`PrintModel::half_unit`] of the values of one column, without a
+/// logarithm per value: the decade of the last value is remembered, and a
+/// value well inside it (by a relative 1e-12, far beyond the error of
+/// `log10`) has the same `floor(log10)` and so the same half unit. The
+/// results are bit for bit those of `half_unit`.
+pub(crate) struct HalfUnits {
+    model: PrintModel,
+    scale: f64,
+    by_decimals: f64,
+    /// `(low, high, by_significant)`: printed values in `[low, high)` have
+    /// the half unit `by_significant` by significant digits.
+    decade: (f64, f64, f64),
+}
+
+impl HalfUnits {
+    /// Half units of values scaled by `scale` (see [`PrintModel::half_unit`]).
+    pub fn new(model: &PrintModel, scale: f64) -> Self {
+        let by_decimals = if model.max_decimals == i32::MIN {
+            f64::INFINITY
+        } else {
+            0.5 * 10f64.powi(-model.max_decimals.clamp(-400, 400))
+        };
+        Self {
+            model: *model,
+            scale,
+            by_decimals,
+            decade: (f64::NAN, f64::NAN, 0.0),
+        }
+    }
+
+    /// The same as `model.half_unit(v, scale)`.
+    pub fn of(&mut self, v: f64) -> f64 {
+        if self.model.exact {
+            return 0.0;
+        }
+        let printed = (v / self.scale).abs();
+        let by_significant =
+            if printed > 0.0 && printed.is_finite() && self.model.max_significant > 0 {
+                let (low, high, cached) = self.decade;
+                if printed >= low && printed < high {
+                    cached
+                } else {
+                    let mag = printed.log10().floor() as i32;
+                    let q = 0.5
+                        * 10f64
+                            .powi((mag - self.model.max_significant as i32 + 1).clamp(-400, 400));
+                    // Far from subnormal and overflowing powers of ten, where
+                    // 10^mag is accurate to a few ulps.
+                    if (-300..=300).contains(&mag) {
+                        let base = 10f64.powi(mag);
+                        self.decade = (base * (1.0 + 1e-12), 10.0 * base * (1.0 - 1e-12), q);
+                    }
+                    q
+                }
+            } else {
+                0.0
+            };
+        self.by_decimals.max(by_significant) * self.scale
+    }
+}
+
 /// Why a time axis was refused; `index` is the sample concerned.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum AxisError {
@@ -146,17 +207,24 @@ pub(crate) fn check_uniform(t: &[f64], model: &PrintModel, scale: f64) -> Result
     if !span.is_finite() || dt <= 0.0 || dt.is_nan() {
         return Err(AxisError::Overflow { index: n - 1 });
     }
-    let q = |i: usize| model.half_unit(t[i], scale);
-    let (q0, qn) = (q(0), q(n - 1));
+    let (q0, qn) = (
+        model.half_unit(t[0], scale),
+        model.half_unit(t[n - 1], scale),
+    );
+    let mut half_units = HalfUnits::new(model, scale);
+    let mut q = |i: usize| half_units.of(t[i]);
     let eps = f64::EPSILON;
     let clamp = |tol: f64| tol.max(FLOOR * dt).min(CAP * dt);
 
     // Steps: catches a gap or a doubled sample at the line where it is.
     let dt_error = (q0 + qn) / (n - 1) as f64;
+    let mut q_previous = q0;
     for i in 1..n {
         let step = t[i] - t[i - 1];
+        let qi = q(i);
         let tol =
-            clamp(q(i) + q(i - 1) + 2.0 * dt_error + 4.0 * eps * (t[i].abs() + t[i - 1].abs()));
+            clamp(qi + q_previous + 2.0 * dt_error + 4.0 * eps * (t[i].abs() + t[i - 1].abs()));
+        q_previous = qi;
         if (step - dt).abs() > tol {
             return Err(AxisError::Step {
                 index: i,
@@ -246,6 +314,48 @@ mod tests {
             })
             .collect();
         (t, m)
+    }
+
+    #[test]
+    fn remembered_decades_give_the_same_half_units() {
+        let mut values = vec![0.0, -0.0, 1e-310, 5e-324, 1e300, 1.7e308, f64::NAN, -3.5];
+        for k in -310..=308 {
+            let p = format!("1e{k}").parse::<f64>().unwrap();
+            for v in [
+                p,
+                next_up(p),
+                next_down(p),
+                0.999_999_999_999_9 * p,
+                9.999 * p,
+            ] {
+                values.push(v);
+            }
+        }
+        let mut x = 0.123_f64;
+        for _ in 0..20_000 {
+            // A deterministic spread over many decades, and runs within one.
+            x = (x * 7919.0 + 0.61).fract();
+            values.push(10f64.powf(40.0 * x - 20.0));
+            values.push(1000.0 + x);
+        }
+        for texts in [
+            &["0.000488"][..],
+            &["4.88281E-04", "1.5"],
+            &["12345678901234567"],
+            &[],
+        ] {
+            let mut model = PrintModel::printed();
+            for s in texts {
+                model.observe(printed_precision(s));
+            }
+            for scale in [1.0, 1e-3] {
+                let mut cached = HalfUnits::new(&model, scale);
+                for &v in values.iter().chain(values.iter().rev()) {
+                    let want = model.half_unit(v, scale);
+                    assert_eq!(cached.of(v).to_bits(), want.to_bits(), "{v:e} {texts:?}");
+                }
+            }
+        }
     }
 
     #[test]

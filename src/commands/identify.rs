@@ -185,9 +185,8 @@ pub fn run(args: &IdentifyArgs, out: &mut dyn Write) -> Result<()> {
             // A file that cannot be read goes to the record reader, whose
             // message names it as for every other file (and as the Python
             // package's `read_records` does).
-            let frf = std::fs::read(first).is_ok_and(|bytes| {
-                records::frf::content_kind(&bytes) == records::frf::ContentKind::Frf
-            });
+            let frf = records::frf::read_content_kind(first)
+                .is_ok_and(|kind| kind == records::frf::ContentKind::Frf);
             check_route_flags(args, first, frf)?;
             if frf {
                 return identify_frfs(args, out);
@@ -246,7 +245,13 @@ fn identify_records(args: &IdentifyArgs, modes: ident::ModeSelection) -> Result<
     if args.files.is_empty() {
         bail!("no record files given");
     }
-    let (files, campaign) = load_campaign(&args.select, &args.files)?;
+    let (mut files, campaign) = load_campaign(&args.select, &args.files)?;
+    // The samples are in the campaign now; the files stay for what the
+    // messages and the export take from them (channel names, nodes, lines,
+    // sampling), so a long record's samples are not held twice.
+    for channel in files.iter_mut().flat_map(|f| f.channels.iter_mut()) {
+        channel.values = Vec::new();
+    }
     let collocated = match &args.collocated {
         Some(text) => parse_collocated(text, &campaign.outputs, &campaign.inputs)?,
         None => (0, 0),

@@ -14,6 +14,7 @@ use records::consistency::{
 };
 use records::numfmt::sig;
 use records::quality::{Check, Excitation, HitQuality, QualitySettings, assess_campaign};
+use std::borrow::Cow;
 
 use crate::decimate::{Decimation, DecimationSetting};
 use crate::scenario::ParametrizationSetting;
@@ -425,7 +426,7 @@ pub fn analyze_located(
         .iter()
         .any(|&i| hit_quality[i].excitation == Excitation::Continuous);
     let (decimated, decimation) =
-        decimate_campaign(campaign, &campaign.subset(&keep), continuous, settings);
+        decimate_campaign(campaign, &subset(campaign, &keep), continuous, settings);
     let mut identifier = settings.identifier.clone();
     let (initial_state, cut) = initial_state(
         &decimated,
@@ -440,7 +441,7 @@ pub fn analyze_located(
         identifier = identifier.initial_state(report.assumed);
     }
     let work = if cut > 0 {
-        cut_start(&decimated, cut)
+        Cow::Owned(cut_start(&decimated, cut))
     } else {
         decimated
     };
@@ -450,7 +451,7 @@ pub fn analyze_located(
         offset: cut,
     };
     let locate: &dyn Locate = &mapped;
-    let campaign = &work;
+    let campaign: &Campaign = &work;
     let id = &identifier;
     let mut c = campaign.subset(&keep);
     check_orders(&c, id)?;
@@ -924,21 +925,37 @@ fn refine(
         .map_err(|error| AnalysisError::Refinement { error })
 }
 
+/// The hits `keep` of `campaign`: the campaign itself when that is all of
+/// them (a long record is not copied).
+fn subset<'a>(campaign: &'a Campaign, keep: &[usize]) -> Cow<'a, Campaign> {
+    if keep.iter().copied().eq(0..campaign.len()) {
+        Cow::Borrowed(campaign)
+    } else {
+        Cow::Owned(campaign.subset(keep))
+    }
+}
+
 /// `campaign` decimated as `settings.decimation` says, the factor chosen
-/// from `kept` (the hits kept, as read).
-fn decimate_campaign(
-    campaign: &Campaign,
+/// from `kept` (the hits kept, as read); `campaign` itself (not a copy)
+/// when the factor is 1.
+fn decimate_campaign<'a>(
+    campaign: &'a Campaign,
     kept: &Campaign,
     continuous: bool,
     settings: &AnalysisSettings,
-) -> (Campaign, Decimation) {
+) -> (Cow<'a, Campaign>, Decimation) {
     let (factor, peaks_hz, reason) = crate::decimate::choose(
         kept,
         continuous,
         settings.decimation,
         &settings.identifier.modes,
     );
-    let (out, filter, half) = crate::decimate::decimate(campaign, factor);
+    let (out, filter, half) = if factor > 1 {
+        let (out, filter, half) = crate::decimate::decimate(campaign, factor);
+        (Cow::Owned(out), filter, half)
+    } else {
+        (Cow::Borrowed(campaign), None, 0)
+    };
     let n = |c: &Campaign| c.records.first().map_or(0, ident::Record::len);
     let dropped_end_samples = if factor > 1 {
         n(campaign).saturating_sub((n(&out).saturating_sub(1)) * factor + 1)

@@ -262,8 +262,30 @@ fn row(bi: usize, m: usize, i: usize) -> usize {
 /// Bins whose Jacobian rows are reduced together (bounds the memory of long records).
 const BLOCK_BINS: usize = 64;
 
-/// Per-bin model quantities of a group, kept between the passes.
+/// Largest per-bin model cache of a group, bytes. A group with more bins
+/// (a long record: 10^6 samples give 375 001 bins, 228 MB of cache for a
+/// 2-DOF model) keeps only `G` and `L` (for the residuals and gains) and
+/// recomputes the rest per bin in the Jacobian pass: the same function of
+/// the same inputs, so the same numbers bit for bit, and far less memory.
+const CACHE_BYTES: usize = 64 << 20;
+
+#[cfg(test)]
+thread_local! {
+    /// [`CACHE_BYTES`] in tests, lowered to run the recomputing path on small data.
+    pub(crate) static CACHE_LIMIT: std::cell::Cell<usize> = const { std::cell::Cell::new(CACHE_BYTES) };
+}
+
+fn cache_bytes() -> usize {
+    #[cfg(test)]
+    return CACHE_LIMIT.with(|c| c.get());
+    #[cfg(not(test))]
+    CACHE_BYTES
+}
+
+/// Per-bin model quantities of a group, kept between the passes: all of
+/// them (`full`), or `G` and `L` only.
 struct Cache {
+    full: bool,
     res: Vec<C64>,
     cr: Vec<C64>,
     rb: Vec<C64>,
@@ -274,21 +296,32 @@ struct Cache {
 
 impl Cache {
     fn new(work: &BinWork, nb: usize) -> Self {
+        let per_bin = work.res.len()
+            + work.cr.len()
+            + work.rb.len()
+            + work.qi.len()
+            + work.g.len()
+            + work.l.len();
+        let full = nb.saturating_mul(per_bin * std::mem::size_of::<C64>()) <= cache_bytes();
+        let of = |len: usize| Vec::with_capacity(if full { nb * len } else { 0 });
         Self {
-            res: Vec::with_capacity(nb * work.res.len()),
-            cr: Vec::with_capacity(nb * work.cr.len()),
-            rb: Vec::with_capacity(nb * work.rb.len()),
-            qi: Vec::with_capacity(nb * work.qi.len()),
+            full,
+            res: of(work.res.len()),
+            cr: of(work.cr.len()),
+            rb: of(work.rb.len()),
+            qi: of(work.qi.len()),
             g: Vec::with_capacity(nb * work.g.len()),
             l: Vec::with_capacity(nb * work.l.len()),
         }
     }
 
     fn push(&mut self, work: &BinWork) {
-        self.res.extend_from_slice(&work.res);
-        self.cr.extend_from_slice(&work.cr);
-        self.rb.extend_from_slice(&work.rb);
-        self.qi.extend_from_slice(&work.qi);
+        if self.full {
+            self.res.extend_from_slice(&work.res);
+            self.cr.extend_from_slice(&work.cr);
+            self.rb.extend_from_slice(&work.rb);
+            self.qi.extend_from_slice(&work.qi);
+        }
         self.g.extend_from_slice(&work.g);
         self.l.extend_from_slice(&work.l);
     }
@@ -561,8 +594,18 @@ pub(crate) fn evaluate(
         let mut jblk = vec![0.0; np * cap];
         let mut jri = vec![0.0; np2];
         for (bi, bin) in group.bins.iter().enumerate() {
-            let res = slice(&cache.res, bi, s * s);
-            let cr = slice(&cache.cr, bi, m * s);
+            let (res, cr, rb, qi) = if cache.full {
+                (
+                    slice(&cache.res, bi, s * s),
+                    slice(&cache.cr, bi, m * s),
+                    slice(&cache.rb, bi, s * r),
+                    slice(&cache.qi, bi, n * n),
+                )
+            } else {
+                // Succeeds: it did for this bin in pass 1.
+                work.compute(model, bin, noise)?;
+                (&work.res[..], &work.cr[..], &work.rb[..], &work.qi[..])
+            };
             let g = slice(&cache.g, bi, m * r);
             let l = slice(&cache.l, bi, m * m);
             let sc = sc_of(bin);
@@ -586,7 +629,6 @@ pub(crate) fn evaluate(
             match model.intersample {
                 Intersample::Zoh => {
                     // dG = dD + (dC + C R dA_d) R B_d + C R dB_d.
-                    let rb = slice(&cache.rb, bi, s * r);
                     for i in 0..m {
                         for li in 0..r {
                             let o = (i * r + li) * np;
@@ -630,7 +672,6 @@ pub(crate) fn evaluate(
                             }
                         }
                     }
-                    let qi = slice(&cache.qi, bi, n * n);
                     for i in 0..n {
                         for li in 0..r {
                             let o = (i * r + li) * np;

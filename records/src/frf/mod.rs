@@ -493,6 +493,20 @@ pub fn content_kind(bytes: &[u8]) -> ContentKind {
     }
 }
 
+/// [`content_kind`] of the file at `path`. A text file is judged from its
+/// first lines without reading the rest; a UFF file (which is judged from
+/// its first dataset 58) is read whole.
+pub fn read_content_kind(path: &Path) -> Result<ContentKind, RecordError> {
+    use crate::format::FileFormat as _;
+    let head = crate::format::Head::read(path)?;
+    if head.first_line_whole()
+        && !crate::format::Uff58(crate::uff::Uff58Encoding::Ascii).detect(&head.bytes)
+    {
+        return Ok(content_kind(&head.bytes));
+    }
+    Ok(content_kind(&head.into_bytes(path)?))
+}
+
 /// Parses FRF content held in memory, recognising the format from the
 /// content (UFF if the first non-blank line is `-1`, else CSV, headerless
 /// if the first line is a row of complex numbers). `path` is used in
