@@ -13,6 +13,7 @@ use super::Layout;
 use crate::record::Record;
 use nalgebra::DMatrix;
 use num_complex::Complex;
+use rayon::prelude::*;
 use rustfft::FftPlanner;
 use std::cell::RefCell;
 
@@ -43,26 +44,42 @@ fn fft_len(n: usize) -> usize {
 
 /// Full correlations `sum_k x_a[k] x_b[k + d]` (samples outside `0 .. len` are zero) of
 /// every ordered channel pair `(a, b)` for `d = 0 ..= dmax`, at index
-/// `(a * nch + b) * (dmax + 1) + d`.
+/// `(a * nch + b) * (dmax + 1) + d`. Channel `c` is `ins[c + r k]` for `c < r` and
+/// `outs[c - r + m k]` otherwise (column-major records).
 ///
 /// By FFT: with `A_a` the transform of a block of channel `a` and `E_b` that of the same
 /// block of channel `b` extended by the next `dmax` samples (zero-padded to a length of
 /// at least their sum, so that no lag up to `dmax` wraps around), `conj(A_a) E_b` is the
 /// transform of the block's share of the correlation; the shares are summed as spectra
-/// and transformed back once. Two real channels share each complex transform. Round-off
-/// is that of the FFT, of order `eps log2(n)` relative to `sqrt(sum x_a^2 sum x_b^2)`: the
-/// Gram matrix stays within the 1e-12 of its scale of the direct sums that
+/// and transformed back once. Two real channels share each complex transform. A record
+/// that fits one block (`len + dmax` at most the transform length) needs no extension:
+/// then the spectrum of `(b, a)` is the conjugate of that of `(a, b)`, and one inverse
+/// transform gives both (`(a, b)` at lags `d`, `(b, a)` at lags `n - d`), so only the
+/// pairs `a <= b` are transformed. Round-off is that of the FFT, of order
+/// `eps log2(n)` relative to `sqrt(sum x_a^2 sum x_b^2)`: the Gram matrix stays within the
+/// 1e-12 of its scale of the direct sums that
 /// `lagged_products_equal_the_gram_matrix_of_the_regression` asks, and M and K of paper
 /// case 1 (10 hits) moved by 3e-13 relative against the direct sums (measured).
 fn full_correlations(
-    x: &dyn Fn(usize, usize) -> f64,
-    nch: usize,
+    ins: &[f64],
+    outs: &[f64],
+    r: usize,
+    m: usize,
     len: usize,
     dmax: usize,
 ) -> Vec<f64> {
     type C = Complex<f64>;
     let zero = C::new(0.0, 0.0);
-    let n_fft = if len + dmax <= FFT_BLOCK.max(4 * (dmax + 1)) {
+    let nch = r + m;
+    let channel = |c: usize| -> (&[f64], usize) {
+        if c < r {
+            (&ins[c..], r)
+        } else {
+            (&outs[c - r..], m)
+        }
+    };
+    let one_block = len + dmax <= FFT_BLOCK.max(4 * (dmax + 1));
+    let n_fft = if one_block {
         fft_len(len + dmax)
     } else {
         fft_len(FFT_BLOCK.max(4 * (dmax + 1)))
@@ -81,19 +98,29 @@ fn full_correlations(
     let mut buf = vec![zero; n_fft];
     // Half spectra (bins 0 ..= n/2) of the block (`short`) and of the extended block.
     let mut short = vec![zero; nch * half];
-    let mut ext = vec![zero; nch * half];
-    let mut spec = vec![zero; nch * nch * half];
+    let mut ext = if one_block {
+        Vec::new()
+    } else {
+        vec![zero; nch * half]
+    };
     // Transforms of channels `c .. c + 2` over samples `k0 .. k0 + count`.
     let mut spectra = |out: &mut [C], k0: usize, count: usize| {
         for c in (0..nch).step_by(2) {
             let pair = c + 1 < nch;
-            for (j, v) in buf.iter_mut().enumerate() {
-                *v = if j < count {
-                    C::new(x(c, k0 + j), if pair { x(c + 1, k0 + j) } else { 0.0 })
-                } else {
-                    zero
-                };
+            let (xa, sa) = channel(c);
+            let (head, tail) = buf.split_at_mut(count);
+            if pair {
+                let (xb, sb) = channel(c + 1);
+                for (j, v) in head.iter_mut().enumerate() {
+                    let k = k0 + j;
+                    *v = C::new(xa[sa * k], xb[sb * k]);
+                }
+            } else {
+                for (j, v) in head.iter_mut().enumerate() {
+                    *v = C::new(xa[sa * (k0 + j)], 0.0);
+                }
             }
+            tail.fill(zero);
             fwd.process_with_scratch(&mut buf, &mut scratch);
             for f in 0..half {
                 let z = buf[f];
@@ -107,35 +134,59 @@ fn full_correlations(
             }
         }
     };
-    let mut k0 = 0;
-    while k0 < len {
-        let n = block.min(len - k0);
-        let ne = (n + dmax).min(len - k0);
-        spectra(&mut short, k0, n);
-        let e = if ne > n {
-            spectra(&mut ext, k0, ne);
-            &ext
-        } else {
-            &short
-        };
-        for a in 0..nch {
+    // The cross-spectra transformed back: every ordered pair, or with one block only
+    // `a <= b` (the others by symmetry).
+    let pairs: Vec<(usize, usize)> = (0..nch)
+        .flat_map(|a| (0..nch).map(move |b| (a, b)))
+        .filter(|&(a, b)| !one_block || a <= b)
+        .collect();
+    let mut spec = Vec::with_capacity(pairs.len() * half);
+    if one_block {
+        spectra(&mut short, 0, len);
+        for &(a, b) in &pairs {
             let sa = &short[a * half..(a + 1) * half];
-            for b in 0..nch {
+            let sb = &short[b * half..(b + 1) * half];
+            spec.extend(sa.iter().zip(sb).map(|(x, y)| x.conj() * y));
+        }
+    } else {
+        spec.resize(pairs.len() * half, zero);
+        let mut k0 = 0;
+        while k0 < len {
+            let n = block.min(len - k0);
+            let ne = (n + dmax).min(len - k0);
+            spectra(&mut short, k0, n);
+            let e = if ne > n {
+                spectra(&mut ext, k0, ne);
+                &ext
+            } else {
+                &short
+            };
+            for (p, &(a, b)) in pairs.iter().enumerate() {
+                let sa = &short[a * half..(a + 1) * half];
                 let eb = &e[b * half..(b + 1) * half];
-                let acc = &mut spec[(a * nch + b) * half..(a * nch + b + 1) * half];
-                for f in 0..half {
-                    acc[f] += sa[f].conj() * eb[f];
+                for ((v, x), y) in spec[p * half..(p + 1) * half].iter_mut().zip(sa).zip(eb) {
+                    *v += x.conj() * y;
                 }
             }
+            k0 += n;
         }
-        k0 += n;
     }
     let stride = dmax + 1;
     let mut corr = vec![0.0; nch * nch * stride];
     let scale = 1.0 / n_fft as f64;
-    let pairs = nch * nch;
-    for first in (0..pairs).step_by(2) {
-        let second = (first + 1 < pairs).then_some(first + 1);
+    // Lags `d` of pair `(a, b)`, and with one block lags `n - d` for `(b, a)`.
+    let mut store = |(a, b): (usize, usize), value: &dyn Fn(usize) -> f64| {
+        for d in 0..stride {
+            corr[(a * nch + b) * stride + d] = value(d) * scale;
+        }
+        if one_block && a != b {
+            for d in 0..stride {
+                corr[(b * nch + a) * stride + d] = value((n_fft - d) % n_fft) * scale;
+            }
+        }
+    };
+    for first in (0..pairs.len()).step_by(2) {
+        let second = (first + 1 < pairs.len()).then_some(first + 1);
         // Full spectrum of s1 + i s2 from the half spectra of the real s1, s2.
         let s1 = &spec[first * half..(first + 1) * half];
         let s2 = second.map(|sec| &spec[sec * half..(sec + 1) * half]);
@@ -159,11 +210,9 @@ fn full_correlations(
             }
         }
         inv.process_with_scratch(&mut buf, &mut scratch);
-        for d in 0..stride {
-            corr[first * stride + d] = buf[d].re * scale;
-            if let Some(second) = second {
-                corr[second * stride + d] = buf[d].im * scale;
-            }
+        store(pairs[first], &|i| buf[i].re);
+        if let Some(second) = second {
+            store(pairs[second], &|i| buf[i].im);
         }
     }
     corr
@@ -216,11 +265,16 @@ impl Moments {
         }
     }
 
-    /// Sum of the moments of `records`, in order.
+    /// Sum of the moments of `records`, in order. The records' moments are computed in
+    /// parallel and summed in record order, so the sum does not depend on the threads.
     pub(crate) fn of_records(records: &[&Record], layout: &Layout) -> Self {
+        let each: Vec<Self> = records
+            .par_iter()
+            .map(|rec| Self::of_record(rec, layout))
+            .collect();
         let mut total = Self::zeros(layout);
-        for rec in records {
-            total.add(&Self::of_record(rec, layout));
+        for moments in &each {
+            total.add(moments);
         }
         total
     }
@@ -271,7 +325,7 @@ impl Moments {
         // smallest.
         let dmax = p + q;
         let stride = dmax + 1;
-        let corr = full_correlations(&x, nch, len, dmax);
+        let corr = full_correlations(ins, outs, r, m, len, dmax);
         // The regression leaves out, of the full correlation sum_k x_a[k] x_b[k + d], the
         // first few and the last few products (see below): partial sums of those products
         // from the record's start (`head`) and back from its end (`tail`), for every
@@ -311,25 +365,35 @@ impl Moments {
                     let slot = (a * nch + b) * lags + di;
                     // Head: k = full_lo + t with full_lo = max(0, -d).
                     let lo = 0.max(-d) as usize;
-                    let (ha, hb) = (&first[a][lo..], &first[b][(lo as isize + d) as usize..]);
+                    let (ha, hb) = (
+                        &first[a][lo..lo + head_max],
+                        &first[b][(lo as isize + d) as usize..][..head_max],
+                    );
                     debug_assert_eq!(head.len(), slot * (head_max + 1));
-                    let mut sum = 0.0;
-                    head.push(sum);
-                    for t in 0..head_max {
-                        sum += ha[t] * hb[t];
-                        head.push(sum);
-                    }
-                    // Tail: k = full_hi - t with full_hi = len - 1 - max(0, d).
+                    head.push(0.0);
+                    head.extend(ha.iter().zip(hb).scan(0.0, |sum, (x, y)| {
+                        *sum += x * y;
+                        Some(*sum)
+                    }));
+                    // Tail: k = full_hi - t with full_hi = len - 1 - max(0, d), sample
+                    // `ia - t` of `last[a]` and `ib - t` of `last[b]`.
                     let ia = span_tail - 1 - 0.max(d) as usize;
                     let ib = (ia as isize + d) as usize;
-                    let (ta, tb) = (&last[a], &last[b]);
+                    let (ta, tb) = (
+                        &last[a][ia + 1 - tail_max..=ia],
+                        &last[b][ib + 1 - tail_max..=ib],
+                    );
                     debug_assert_eq!(tail.len(), slot * (tail_max + 1));
-                    let mut sum = 0.0;
-                    tail.push(sum);
-                    for t in 0..tail_max {
-                        sum += ta[ia - t] * tb[ib - t];
-                        tail.push(sum);
-                    }
+                    tail.push(0.0);
+                    tail.extend(
+                        ta.iter()
+                            .rev()
+                            .zip(tb.iter().rev())
+                            .scan(0.0, |sum, (x, y)| {
+                                *sum += x * y;
+                                Some(*sum)
+                            }),
+                    );
                 }
             }
         }

@@ -101,6 +101,7 @@ pub(crate) fn invert(a: &mut [C64], n: usize, inv: &mut [C64]) -> bool {
 /// Solves `a x = b` in place for the n x n matrix `a` (destroyed) and `c` right-hand sides
 /// stored column-major in `b` (n x c), by Gaussian elimination with partial pivoting.
 /// Returns false if a pivot is zero or not finite.
+#[inline]
 pub(crate) fn solve(a: &mut [C64], n: usize, b: &mut [C64], c: usize) -> bool {
     debug_assert!(a.len() >= n * n && b.len() >= n * c);
     for col in 0..n {

@@ -6,9 +6,11 @@ use crate::linalg::C64;
 use crate::modal::Intersample;
 use crate::record::Record;
 use nalgebra::DMatrix;
-use rustfft::FftPlanner;
+use rustfft::{Fft, FftDirection, FftPlanner};
+use std::cell::RefCell;
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
+use std::sync::Arc;
 
 /// One DFT bin of a record of `len` samples.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -64,21 +66,38 @@ pub(crate) fn bins(len: usize, dt: f64, intersample: Intersample, band_edge: f64
         .collect()
 }
 
+thread_local! {
+    /// FFT plans are cached per thread (a plan is pure: the results do not depend on
+    /// which thread made it, nor on whether it was cached).
+    static PLANNER: RefCell<FftPlanner<f64>> = RefCell::new(FftPlanner::new());
+}
+
+/// The cached forward or inverse FFT of length `len`.
+fn plan(len: usize, direction: FftDirection) -> Arc<dyn Fft<f64>> {
+    PLANNER.with(|p| p.borrow_mut().plan_fft(len, direction))
+}
+
+/// `fft` of `buf` in place with a scratch buffer kept by the caller (grown as needed), so
+/// that repeated transforms allocate and zero nothing.
+fn transform(fft: &dyn Fft<f64>, buf: &mut [C64], scratch: &mut Vec<C64>) {
+    let need = fft.get_inplace_scratch_len();
+    if scratch.len() < need {
+        scratch.resize(need, C64::new(0.0, 0.0));
+    }
+    fft.process_with_scratch(buf, &mut scratch[..need]);
+}
+
 /// Forward DFT `X_k = sum_t x_t exp(-j 2 pi k t / N)` of each row of `x`, bins `0..keep`.
-pub(crate) fn dft_rows(
-    planner: &mut FftPlanner<f64>,
-    x: &DMatrix<f64>,
-    keep: usize,
-) -> DMatrix<C64> {
+pub(crate) fn dft_rows(x: &DMatrix<f64>, keep: usize, scratch: &mut Vec<C64>) -> DMatrix<C64> {
     let len = x.ncols();
-    let fft = planner.plan_fft_forward(len);
+    let fft = plan(len, FftDirection::Forward);
     let mut out = DMatrix::zeros(x.nrows(), keep);
     let mut buf = vec![C64::new(0.0, 0.0); len];
     for row in 0..x.nrows() {
         for (t, b) in buf.iter_mut().enumerate() {
             *b = C64::new(x[(row, t)], 0.0);
         }
-        fft.process(&mut buf);
+        transform(fft.as_ref(), &mut buf, scratch);
         for k in 0..keep {
             out[(row, k)] = buf[k];
         }
@@ -110,13 +129,13 @@ impl Spectra {
                 hits,
             });
         }
-        let mut planner = FftPlanner::new();
+        let mut scratch = Vec::new();
         let mut y = Vec::with_capacity(records.len());
         let mut u = Vec::with_capacity(records.len());
         for (h, rec) in records.iter().enumerate() {
             let keep = groups[group_of[h]].bins.len();
-            y.push(dft_rows(&mut planner, &rec.outputs, keep));
-            u.push(dft_rows(&mut planner, &rec.inputs, keep));
+            y.push(dft_rows(&rec.outputs, keep, &mut scratch));
+            u.push(dft_rows(&rec.inputs, keep, &mut scratch));
         }
         Self { groups, y, u }
     }
@@ -165,45 +184,58 @@ pub(crate) fn noise_free_outputs(model: &Model, inputs: &[DMatrix<f64>]) -> Vec<
                 usize::MAX
             };
             let r = model.r;
-            let mut planner = FftPlanner::new();
             // The response is `y_t = sum_tau g[(t - tau) mod P] u_tau` with `g` the inverse
             // DFT of `H` on the padded grid of length `P` (the band-limited impulse response,
             // aliased with period `P`, where it has decayed). Only the lags `-(len - 1)` to
             // `len - 1` enter, so `g` is computed once per padded length and the records are
             // convolved with those lags on a grid of `Q >= 2 len` points: the same sums as
             // multiplying each record's padded DFT by `H`, far fewer and shorter transforms.
+            // The outputs are real, so two of them share one complex inverse transform (the
+            // first in the real part, the second in the imaginary part).
             let mut kernels: BTreeMap<usize, Kernel> = BTreeMap::new();
+            let mut scratch = Vec::new();
             let mut out = Vec::with_capacity(inputs.len());
+            let mut uspec: Vec<C64> = Vec::new();
+            let mut spec: Vec<C64> = Vec::new();
             for u in inputs {
                 let len = u.ncols();
                 let kernel = kernels
                     .entry(len)
-                    .or_insert_with(|| Kernel::new(model, &mut planner, len, decay));
+                    .or_insert_with(|| Kernel::new(model, len, decay, &mut scratch));
                 let q = kernel.q;
-                let fwd = planner.plan_fft_forward(q);
-                let inv = planner.plan_fft_inverse(q);
-                let mut uspec = Vec::with_capacity(r);
+                let fwd = plan(q, FftDirection::Forward);
+                let inv = plan(q, FftDirection::Inverse);
+                uspec.clear();
                 for l in 0..r {
-                    let mut buf = vec![C64::new(0.0, 0.0); q];
-                    for t in 0..len {
-                        buf[t] = C64::new(u[(l, t)], 0.0);
-                    }
-                    fwd.process(&mut buf);
-                    uspec.push(buf);
+                    uspec.extend((0..len).map(|t| C64::new(u[(l, t)], 0.0)));
+                    uspec.resize((l + 1) * q, C64::new(0.0, 0.0));
+                }
+                for buf in uspec.chunks_exact_mut(q) {
+                    transform(fwd.as_ref(), buf, &mut scratch);
                 }
                 let mut y = DMatrix::zeros(n, len);
-                let mut spec = vec![C64::new(0.0, 0.0); q];
-                for i in 0..n {
-                    spec.fill(C64::new(0.0, 0.0));
-                    for l in 0..r {
-                        let g = &kernel.spectra[i + l * n];
-                        for ((v, &a), &b) in spec.iter_mut().zip(g).zip(&uspec[l]) {
-                            *v += a * b;
+                spec.resize(q, C64::new(0.0, 0.0));
+                for i in (0..n).step_by(2) {
+                    let second = (i + 1 < n).then_some(i + 1);
+                    for (f, v) in spec.iter_mut().enumerate() {
+                        let mut first = C64::new(0.0, 0.0);
+                        let mut other = C64::new(0.0, 0.0);
+                        for l in 0..r {
+                            let ul = uspec[l * q + f];
+                            first += kernel.spectra[i + l * n][f] * ul;
+                            if let Some(i2) = second {
+                                other += kernel.spectra[i2 + l * n][f] * ul;
+                            }
                         }
+                        *v = C64::new(first.re - other.im, first.im + other.re);
                     }
-                    inv.process(&mut spec);
+                    transform(inv.as_ref(), &mut spec, &mut scratch);
+                    let scale = 1.0 / q as f64;
                     for t in 0..len {
-                        y[(i, t)] = spec[t].re / q as f64;
+                        y[(i, t)] = spec[t].re * scale;
+                        if let Some(i2) = second {
+                            y[(i2, t)] = spec[t].im * scale;
+                        }
                     }
                 }
                 out.push(y);
@@ -224,36 +256,51 @@ struct Kernel {
 }
 
 impl Kernel {
-    fn new(model: &Model, planner: &mut FftPlanner<f64>, len: usize, decay: usize) -> Self {
+    fn new(model: &Model, len: usize, decay: usize, scratch: &mut Vec<C64>) -> Self {
         let (n, r) = (model.n, model.r);
         let padded = (2 * len)
             .saturating_add(decay)
             .min(1 << 22)
             .next_power_of_two();
+        let pairs = n * r;
         let frf = frequency_response(model, padded);
-        let inv = planner.plan_fft_inverse(padded);
+        let inv = plan(padded, FftDirection::Inverse);
         let q = (2 * len).next_power_of_two();
-        let fwd = planner.plan_fft_forward(q);
-        let mut spec = vec![C64::new(0.0, 0.0); padded];
-        let mut spectra = Vec::with_capacity(n * r);
-        for l in 0..r {
-            for i in 0..n {
-                spec.fill(C64::new(0.0, 0.0));
-                for (k, h) in frf.iter().enumerate() {
-                    let Some(h) = h else { continue };
-                    let mut v = h[i + l * n];
-                    if 2 * k == padded {
-                        // The band-limited response is real at Nyquist.
-                        v = C64::new(v.re, 0.0);
-                    }
-                    spec[k] = v;
-                    if k > 0 && 2 * k < padded {
-                        spec[padded - k] = v.conj();
-                    }
-                }
-                inv.process(&mut spec);
+        let fwd = plan(q, FftDirection::Forward);
+        let mut spec = Vec::with_capacity(padded);
+        // Pair index `i + l n` (outputs fastest), as in `frf`.
+        let mut spectra = Vec::with_capacity(pairs);
+        // The lags are real: two pairs share one complex inverse transform (the first in
+        // the real part, the second in the imaginary part), each spectrum extended by
+        // conjugate symmetry.
+        for first in (0..pairs).step_by(2) {
+            let second = (first + 1 < pairs).then_some(first + 1);
+            // a + j b on bins 0 ..= padded / 2, conj(a) + j conj(b) on their mirrors.
+            let both = |h: &[C64]| (h[first], second.map_or(C64::new(0.0, 0.0), |p| h[p]));
+            spec.clear();
+            spec.extend(frf.chunks_exact(pairs).map(|h| {
+                let (a, b) = both(h);
+                C64::new(a.re - b.im, a.im + b.re)
+            }));
+            spec.extend(
+                frf.chunks_exact(pairs)
+                    .rev()
+                    .skip(1)
+                    .take(padded / 2 - 1)
+                    .map(|h| {
+                        let (a, b) = both(h);
+                        C64::new(a.re + b.im, b.re - a.im)
+                    }),
+            );
+            transform(inv.as_ref(), &mut spec, scratch);
+            let scale = 1.0 / padded as f64;
+            for (pair, part) in [(Some(first), false), (second, true)] {
+                let Some(_) = pair else { continue };
                 // Lag `j` of the aliased response is entry `j mod padded`.
-                let lag = |j: usize| C64::new(spec[j % padded].re / padded as f64, 0.0);
+                let lag = |j: usize| {
+                    let v = spec[j % padded];
+                    C64::new(if part { v.im } else { v.re } * scale, 0.0)
+                };
                 let mut lags = vec![C64::new(0.0, 0.0); q];
                 for j in 0..len {
                     lags[j] = lag(j);
@@ -261,46 +308,54 @@ impl Kernel {
                 for j in 1..len {
                     lags[q - j] = lag(padded - j % padded);
                 }
-                fwd.process(&mut lags);
+                transform(fwd.as_ref(), &mut lags, scratch);
                 spectra.push(lags);
             }
         }
-        // Pair index `i + l n` (outputs fastest).
-        let mut ordered = vec![Vec::new(); n * r];
-        for l in 0..r {
-            for i in 0..n {
-                ordered[i + l * n] = std::mem::take(&mut spectra[l * n + i]);
-            }
-        }
-        Self {
-            q,
-            spectra: ordered,
-        }
+        Self { q, spectra }
     }
 }
 
-/// `H(j omega_k) = -omega^2 (K - omega^2 M + j omega R)^-1 B2` (n x r, column-major) for the
-/// bins `0..=padded/2` of a DFT of length `padded`; `None` where it does not exist.
-fn frequency_response(model: &Model, padded: usize) -> Vec<Option<Vec<C64>>> {
+/// `H(j omega_k) = -omega^2 (K - omega^2 M + j omega R)^-1 B2` (n x r, column-major, at
+/// `k n r`) for the bins `0..=padded/2` of a DFT of length `padded` (`padded` even; the
+/// Nyquist bin's real part only, as for a band-limited response); zero where it does not
+/// exist.
+fn frequency_response(model: &Model, padded: usize) -> Vec<C64> {
     let (n, r) = (model.n, model.r);
     let (k_n, m_n, d_n) = (
         model.stiffness.as_slice(),
         model.mass.as_slice(),
         model.damping.as_slice(),
     );
+    let b2 = model.b2.as_slice();
+    let pairs = n * r;
+    let bins = padded / 2 + 1;
+    let mut out = Vec::with_capacity(bins * pairs);
     let mut q = vec![C64::new(0.0, 0.0); n * n];
-    (0..=padded / 2)
-        .map(|k| {
-            let omega = 2.0 * PI * k as f64 / (padded as f64 * model.dt);
-            for (((v, &kv), &mv), &dv) in q.iter_mut().zip(k_n).zip(m_n).zip(d_n) {
-                *v = C64::new(kv - omega * omega * mv, omega * dv);
-            }
-            let mut h = model.b2.as_slice().to_vec();
-            if !super::dense::solve(&mut q, n, &mut h, r) {
-                return None;
-            }
-            h.iter_mut().for_each(|v| *v *= -omega * omega);
-            Some(h)
-        })
-        .collect()
+    let mut h = vec![C64::new(0.0, 0.0); pairs];
+    // The solve with the size as a constant (the common small frames), so that its loops
+    // unroll: the same operations in the same order as for any size.
+    let solve = |q: &mut [C64], h: &mut [C64]| match (n, r) {
+        (2, 1) => super::dense::solve(q, 2, h, 1),
+        (3, 1) => super::dense::solve(q, 3, h, 1),
+        (4, 1) => super::dense::solve(q, 4, h, 1),
+        _ => super::dense::solve(q, n, h, r),
+    };
+    for k in 0..bins {
+        let omega = 2.0 * PI * k as f64 / (padded as f64 * model.dt);
+        for (((v, &kv), &mv), &dv) in q.iter_mut().zip(k_n).zip(m_n).zip(d_n) {
+            *v = C64::new(kv - omega * omega * mv, omega * dv);
+        }
+        h.copy_from_slice(b2);
+        if solve(&mut q, &mut h) {
+            out.extend(h.iter().map(|v| v * (-omega * omega)));
+        } else {
+            out.extend(std::iter::repeat_n(C64::new(0.0, 0.0), pairs));
+        }
+    }
+    // The band-limited response is real at Nyquist.
+    for v in &mut out[(bins - 1) * pairs..] {
+        v.im = 0.0;
+    }
+    out
 }
