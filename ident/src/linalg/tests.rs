@@ -256,3 +256,59 @@ fn spectral_radius_of_block_companion_matrices_with_known_roots() {
     // Well-separated roots of a degree-4 polynomial: round-off of order 1e-15.
     assert!((got - 0.99).abs() < 1e-12, "{got}");
 }
+
+#[test]
+fn leading_svd_matches_the_full_svd_on_an_era_like_spectrum() {
+    // Known singular values as ERA's Hankel matrices have them: three close
+    // pairs (structural modes, 1e0 to 1e-2 of the largest) over a noise floor
+    // falling from 1e-4; random orthogonal factors. The leading vectors must
+    // agree with the full SVD's up to sign: within the pair's conditioning,
+    // residual 1e-13 s_1 over the 1e-4 relative gap inside a pair gives 1e-9,
+    // so 1e-8 is the tolerance.
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let (rows, cols) = (90, 84);
+    let orth = |rng: &mut ChaCha8Rng, n: usize| {
+        let g = DMatrix::from_fn(n, n, |_, _| rng.random::<f64>() - 0.5);
+        thin_qr(&g).0
+    };
+    let (u, v) = (orth(&mut rng, rows), orth(&mut rng, cols));
+    let mut s = vec![100.0, 99.99, 10.0, 9.999, 1.0, 0.9999];
+    s.extend((0..cols - 6).map(|i| 1e-2 * 0.95f64.powi(i as i32)));
+    let m =
+        u.columns(0, cols) * DMatrix::from_diagonal(&DVector::from_vec(s.clone())) * v.transpose();
+    let full = thin_svd(&m).unwrap();
+    for k in [2, 4, 6] {
+        let lead = leading_svd(&m, k)
+            .unwrap()
+            .expect("converges on a clear gap");
+        assert_eq!(lead.s, singular_values(&m).unwrap());
+        assert_eq!((lead.u.shape(), lead.v.shape()), ((rows, k), (cols, k)));
+        for i in 0..k {
+            // Values: to 1e-12 relative of s_1 (both from SVDs of m).
+            assert!((lead.s[i] - s[i]).abs() < 1e-12 * s[0], "{k} {i}");
+            let sign = lead.u.column(i).dot(&full.u.column(i)).signum();
+            let du = (lead.u.column(i) * sign - full.u.column(i)).norm();
+            let dv = (lead.v.column(i) * sign - full.v.column(i)).norm();
+            assert!(du < 1e-8 && dv < 1e-8, "k {k} vector {i}: {du:e} {dv:e}");
+        }
+    }
+    // Too many vectors for the shortcut, and a zero matrix: the caller's full SVD.
+    assert!(leading_svd(&m, 40).unwrap().is_none());
+    assert!(leading_svd(&DMatrix::zeros(30, 30), 2).unwrap().is_none());
+}
+
+#[test]
+fn leading_svd_without_a_gap_gives_up() {
+    // Equal singular values all the way: the block cannot separate the
+    // leading two from the rest within 30 iterations only if the Ritz
+    // residual stays large; with exactly equal values any basis is exact, so
+    // build a slowly decaying spectrum instead (ratio 0.999 per value): the
+    // subspace converges at 0.999^16 per iteration, far too slowly.
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let n = 60;
+    let g = DMatrix::from_fn(n, n, |_, _| rng.random::<f64>() - 0.5);
+    let q = thin_qr(&g).0;
+    let s = DVector::from_fn(n, |i, _| 0.999f64.powi(i as i32));
+    let m = &q * DMatrix::from_diagonal(&s) * q.transpose();
+    assert!(leading_svd(&m, 2).unwrap().is_none());
+}

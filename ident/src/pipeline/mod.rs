@@ -618,7 +618,14 @@ impl ValidIdentifier {
             block_cols: Some(hankel.block_cols),
             ..era_base
         };
-        let dec = era_params.decompose(&okid.markov, dt_s)?;
+        // Resamples (moments given) at a fixed order realize that order only: the
+        // factored matrix's singular vectors beyond it are not needed.
+        let dec = match (moments, era_params.order) {
+            (Some(_), ModelOrder::Fixed(n)) => {
+                era_params.decompose_to_order(&okid.markov, dt_s, n)?
+            }
+            _ => era_params.decompose(&okid.markov, dt_s)?,
+        };
         Ok(Decomposed {
             outputs: m,
             state_limit,
