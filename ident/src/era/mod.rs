@@ -419,7 +419,9 @@ impl EraParams {
 /// `S(c + k + i, c + l)` with `c = k0 + 1` and `S(a, b) = sum_{j < beta} Y_{a+j} Y_{b+j}^T`,
 /// and `S(a + 1, b + 1) = S(a, b) + Y_{a+beta} Y_{b+beta}^T - Y_a Y_b^T`, so each diagonal
 /// `a - b` costs one sum of `beta` products and two products per further block (instead of
-/// a product of `alpha m x beta r` matrices per `k`).
+/// a product of `alpha m x beta r` matrices per `k`). The first sum of each diagonal is
+/// formed by [`linalg::dot`] of the Markov parameters' entry series (its four partial
+/// sums: round-off of the same order as the running sum's).
 fn correlations(markov: &[DMatrix<f64>], shape: &HankelShape) -> Vec<DMatrix<f64>> {
     let (m, r) = markov[0].shape();
     let (alpha, beta) = (shape.block_rows, shape.block_cols);
@@ -437,6 +439,13 @@ fn correlations(markov: &[DMatrix<f64>], shape: &HankelShape) -> Vec<DMatrix<f64
         flat.extend_from_slice(y.as_slice());
     }
     let y = |k: usize| &flat[k * mr..(k + 1) * mr];
+    // The same, one series per entry `o + m l` of the Markov parameters (`used` each).
+    let mut series = vec![0.0; mr * used];
+    for (k, yk) in flat.chunks_exact(mr).enumerate() {
+        for (s, &v) in yk.iter().enumerate() {
+            series[s * used + k] = v;
+        }
+    }
     // acc += sign Y_a Y_b^T (m x m, column-major).
     let outer = |ya: &[f64], yb: &[f64], acc: &mut [f64], sign: f64| {
         for o2 in 0..m {
@@ -458,9 +467,20 @@ fn correlations(markov: &[DMatrix<f64>], shape: &HankelShape) -> Vec<DMatrix<f64
         } else {
             (0, (-d) as usize)
         };
-        acc.fill(0.0);
-        for j in 0..beta {
-            outer(y(ia + j), y(ib + j), &mut acc, 1.0);
+        // The first sum over the `beta` products, entry by entry as dot products of
+        // the channel series.
+        for o2 in 0..m {
+            for o1 in 0..m {
+                let mut sum = 0.0;
+                for l in 0..r {
+                    let (s1, s2) = (o1 + m * l, o2 + m * l);
+                    sum += linalg::dot(
+                        &series[s1 * used + ia..][..beta],
+                        &series[s2 * used + ib..][..beta],
+                    );
+                }
+                acc[o1 + m * o2] = sum;
+            }
         }
         loop {
             // S(c + ia, c + ib) goes to every R(k) block (i, l) with k + i = ia, l = ib.
@@ -656,11 +676,14 @@ impl Decomposition {
         let vn = svd.v.columns(0, n);
         let sqrt_s = svd.s.rows(0, n).map(|x| x.sqrt());
         let inv_sqrt = sqrt_s.map(|x| 1.0 / x);
-        let a = DMatrix::from_diagonal(&inv_sqrt)
-            * un.transpose()
-            * &self.shifted
-            * vn
-            * DMatrix::from_diagonal(&inv_sqrt);
+        // `Hc(1) V_n` first (long columns), then its dot products with `U_n`: a product
+        // with the short and wide `U_n^T` on the left runs over columns of length `n`.
+        let mut a = un.tr_mul(&(&self.shifted * vn));
+        for j in 0..n {
+            for i in 0..n {
+                a[(i, j)] *= inv_sqrt[i] * inv_sqrt[j];
+            }
+        }
         let p = un * DMatrix::from_diagonal(&sqrt_s);
         let alpha_rows = shape.block_rows * m;
         let observability = p.rows(0, alpha_rows).into_owned();

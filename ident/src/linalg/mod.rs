@@ -902,7 +902,8 @@ pub fn lstsq_truncated(svd: &ThinSvd, b: &DMatrix<f64>, rcond: f64) -> (DMatrix<
     let k = svd.rank(rcond);
     let u = svd.u.columns(0, k);
     let v = svd.v.columns(0, k);
-    let mut coeff = u.transpose() * b;
+    // Dot products of the columns (`U_k^T` on the left of a product is short and wide).
+    let mut coeff = u.tr_mul(b);
     for i in 0..k {
         let inv = 1.0 / svd.s[i];
         coeff.row_mut(i).scale_mut(inv);

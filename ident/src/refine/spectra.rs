@@ -217,17 +217,19 @@ pub(crate) fn noise_free_outputs(model: &Model, inputs: &[DMatrix<f64>]) -> Vec<
                 spec.resize(q, C64::new(0.0, 0.0));
                 for i in (0..n).step_by(2) {
                     let second = (i + 1 < n).then_some(i + 1);
-                    for (f, v) in spec.iter_mut().enumerate() {
-                        let mut first = C64::new(0.0, 0.0);
-                        let mut other = C64::new(0.0, 0.0);
-                        for l in 0..r {
-                            let ul = uspec[l * q + f];
-                            first += kernel.spectra[i + l * n][f] * ul;
-                            if let Some(i2) = second {
-                                other += kernel.spectra[i2 + l * n][f] * ul;
-                            }
-                        }
-                        *v = C64::new(first.re - other.im, first.im + other.re);
+                    // spec = sum_l (G_il + j G_i2l) U_l, input by input.
+                    if r == 0 {
+                        spec.fill(C64::new(0.0, 0.0));
+                    }
+                    for l in 0..r {
+                        let g2 = second.map(|i2| kernel.spectra[i2 + l * n].as_slice());
+                        response_terms(
+                            &mut spec,
+                            &kernel.spectra[i + l * n],
+                            g2,
+                            &uspec[l * q..(l + 1) * q],
+                            l > 0,
+                        );
                     }
                     transform(inv.as_ref(), &mut spec, &mut scratch);
                     let scale = 1.0 / q as f64;
@@ -241,6 +243,35 @@ pub(crate) fn noise_free_outputs(model: &Model, inputs: &[DMatrix<f64>]) -> Vec<
                 out.push(y);
             }
             out
+        }
+    }
+}
+
+/// `(g1 + j g2) u` bin by bin (`g2` zero if `None`) into `spec`, added to it if `add`:
+/// the spectra of two real outputs in one complex one.
+fn response_terms(spec: &mut [C64], g1: &[C64], g2: Option<&[C64]>, u: &[C64], add: bool) {
+    match (g2, add) {
+        (Some(g2), false) => {
+            for (((v, a), b), u) in spec.iter_mut().zip(g1).zip(g2).zip(u) {
+                let (x, y) = (a * u, b * u);
+                *v = C64::new(x.re - y.im, x.im + y.re);
+            }
+        }
+        (Some(g2), true) => {
+            for (((v, a), b), u) in spec.iter_mut().zip(g1).zip(g2).zip(u) {
+                let (x, y) = (a * u, b * u);
+                *v += C64::new(x.re - y.im, x.im + y.re);
+            }
+        }
+        (None, false) => {
+            for ((v, a), u) in spec.iter_mut().zip(g1).zip(u) {
+                *v = a * u;
+            }
+        }
+        (None, true) => {
+            for ((v, a), u) in spec.iter_mut().zip(g1).zip(u) {
+                *v += a * u;
+            }
         }
     }
 }
