@@ -409,3 +409,101 @@ fn csv_text(rec: &RecordFile) -> Result<String, String> {
         )),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frf::{ContentKind, content_kind, read_content_kind};
+    use crate::record::Channel;
+
+    fn record(n: usize) -> RecordFile {
+        let channel = |name: &str, k: f64| Channel {
+            name: name.into(),
+            unit: Some("N".into()),
+            node: None,
+            direction: None,
+            id_line: None,
+            values: (0..n).map(|i| (i as f64 * k).sin() * 1e-3).collect(),
+            lines: None,
+        };
+        RecordFile {
+            path: "hit.csv".into(),
+            format: Format::Csv { delimiter: b',' },
+            dt_s: 1.0 / 64.0,
+            start_s: 0.0,
+            channels: vec![channel("force", 0.1), channel("acc1", 0.37)],
+        }
+    }
+
+    /// `read_record` on the file against `parse_record` on its bytes.
+    fn same_as_in_memory(path: &Path) {
+        let bytes = std::fs::read(path).unwrap();
+        for opts in [ReadOptions::default(), ReadOptions::with_fs_hz(64.0)] {
+            let want = format!("{:?}", parse_record(&bytes, path, &opts));
+            assert_eq!(format!("{:?}", read_record(path, &opts)), want);
+            assert_eq!(
+                format!("{:?}", read_content_kind(path).unwrap()),
+                format!("{:?}", content_kind(&bytes))
+            );
+        }
+    }
+
+    #[test]
+    fn files_read_as_their_content_parses() {
+        let dir = tempfile::tempdir().unwrap();
+        let rec = record(5000);
+        // A CSV file far longer than the head, and a short one.
+        let long = dir.path().join("long.csv");
+        write_csv(&long, &rec).unwrap();
+        assert!(std::fs::metadata(&long).unwrap().len() > 2 * HEAD_BYTES);
+        same_as_in_memory(&long);
+        let short = dir.path().join("short.csv");
+        write_csv(&short, &record(3)).unwrap();
+        same_as_in_memory(&short);
+        // UFF, ASCII and binary, and after more blank lines than the head holds
+        // (recognised from the whole content).
+        for enc in [Uff58Encoding::Ascii, Uff58Encoding::Binary] {
+            let uff = dir.path().join("hit.uff");
+            write_uff58(&uff, &rec, enc).unwrap();
+            same_as_in_memory(&uff);
+            let mut padded = vec![b'\n'; 70_000];
+            padded.extend(std::fs::read(&uff).unwrap());
+            std::fs::write(&uff, padded).unwrap();
+            same_as_in_memory(&uff);
+            assert!(read_record(&uff, &ReadOptions::default()).is_ok());
+        }
+        // A header line longer than the head; a damaged long file.
+        let wide = dir.path().join("wide.csv");
+        let names: Vec<String> = (0..9000).map(|i| format!("acc{i}")).collect();
+        let row = vec!["1"; 9000].join(",");
+        std::fs::write(&wide, format!("{}\n{row}\n{row}\n", names.join(","))).unwrap();
+        same_as_in_memory(&wide);
+        let mut bytes = std::fs::read(&long).unwrap();
+        let at = bytes.len() - 1000;
+        bytes[at] = b'x';
+        std::fs::write(&long, bytes).unwrap();
+        same_as_in_memory(&long);
+        // A missing file.
+        let missing = dir.path().join("missing.csv");
+        match read_record(&missing, &ReadOptions::default()) {
+            Err(RecordError::Io { op: IoOp::Read, .. }) => {}
+            other => panic!("{other:?}"),
+        }
+        assert!(read_content_kind(&missing).is_err());
+    }
+
+    #[test]
+    fn frf_text_is_told_from_its_first_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("h.csv");
+        let mut text = String::from(
+            "frequency_hz,re H(acc@2:+X/hammer@2:+X) [g/N],im H(acc@2:+X/hammer@2:+X) [g/N]\n",
+        );
+        for k in 0..10_000 {
+            text.push_str(&format!("{k},0.5,-1.0\n"));
+        }
+        std::fs::write(&path, text).unwrap();
+        assert_eq!(read_content_kind(&path).unwrap(), ContentKind::Frf);
+        same_as_in_memory(&path);
+    }
+}
