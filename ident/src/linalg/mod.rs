@@ -845,7 +845,8 @@ const LEADING_MAX_ITERATIONS: usize = 30;
 /// block subspace iteration with Rayleigh-Ritz: a fraction of [`thin_svd`]'s cost when `k`
 /// is small beside `min(rows, cols)`.
 ///
-/// The values come from the values-only SVD (so they are those of [`singular_values`]). The
+/// The values come from the values-only SVD (of the triangular factor for an elongated
+/// matrix, as in [`thin_svd`]: they agree with [`singular_values`] to round-off). The
 /// block of `k + 8` columns starts from the `k + 8` rows of `m` of largest norm; each
 /// iteration multiplies by `m` and `m^T` and takes the SVD of the small projected matrix.
 /// It stops when every leading pair has `|m v_i - s_i u_i| <= 64 eps sqrt(max(rows, cols))
@@ -856,8 +857,17 @@ const LEADING_MAX_ITERATIONS: usize = 30;
 /// for a zero matrix: the caller takes [`thin_svd`]. Singular vectors are determined up to
 /// sign (and within a cluster of equal values up to rotation), as [`thin_svd`]'s are.
 pub fn leading_svd(m: &DMatrix<f64>, k: usize) -> Result<Option<ThinSvd>, LinalgError> {
-    let values = singular_values(m)?;
+    ensure_finite(m, "matrix")?;
     let (rows, cols) = m.shape();
+    // The values of an elongated matrix from its square triangular factor, as `thin_svd`
+    // does (the bidiagonalization then runs over the short side only).
+    let values = if rows >= QR_FIRST_RATIO * cols {
+        singular_values(&thin_qr(m).1)?
+    } else if cols >= QR_FIRST_RATIO * rows {
+        singular_values(&thin_qr(&m.transpose()).1)?
+    } else {
+        singular_values(m)?
+    };
     let full = rows.min(cols);
     assert!(
         k <= full,

@@ -292,6 +292,18 @@ fn leading_svd_matches_the_full_svd_on_an_era_like_spectrum() {
             assert!(du < 1e-8 && dv < 1e-8, "k {k} vector {i}: {du:e} {dv:e}");
         }
     }
+    // An elongated matrix (values from its triangular factor): a 90 x 36 and a 36 x 90
+    // block of `m`, values to 1e-13 of the largest, vectors up to sign to 1e-8.
+    for tall in [m.columns(0, 36).into_owned(), m.columns(0, 36).transpose()] {
+        let full = thin_svd(&tall).unwrap();
+        let lead = leading_svd(&tall, 4).unwrap().expect("converges");
+        assert!((&lead.s - &full.s).amax() < 1e-13 * full.s[0]);
+        for i in 0..4 {
+            let sign = lead.u.column(i).dot(&full.u.column(i)).signum();
+            assert!((lead.u.column(i) * sign - full.u.column(i)).norm() < 1e-8);
+            assert!((lead.v.column(i) * sign - full.v.column(i)).norm() < 1e-8);
+        }
+    }
     // Too many vectors for the shortcut, and a zero matrix: the caller's full SVD.
     assert!(leading_svd(&m, 40).unwrap().is_none());
     assert!(leading_svd(&DMatrix::zeros(30, 30), 2).unwrap().is_none());
