@@ -1006,6 +1006,7 @@ impl FrfRefiner {
             gradient_tolerance: self.gradient_tolerance,
             step_tolerance: self.step_tolerance,
             cost_tolerance: self.cost_tolerance,
+            decrease_tolerance: 0.0,
         };
         let loose = lm::Settings {
             gradient_tolerance: self.gradient_tolerance.max(LOOSE_TOLERANCE),

@@ -13,6 +13,9 @@ pub(crate) struct Settings {
     pub gradient_tolerance: f64,
     pub step_tolerance: f64,
     pub cost_tolerance: f64,
+    /// Absolute tolerance on the decrease of the cost a full Gauss-Newton step would bring
+    /// (0: only the relative `cost_tolerance`).
+    pub decrease_tolerance: f64,
 }
 
 /// What the cost function returns at a point: cost, Gauss-Newton matrix `J^T J` and
@@ -93,7 +96,8 @@ pub(crate) fn minimize<E>(
             gn[(i, i)] += GAUSS_NEWTON_REGULARIZATION;
         }
         if let Some(chol) = gn.cholesky()
-            && gs.dot(&chol.solve(&gs)) <= settings.cost_tolerance * point.cost
+            && gs.dot(&chol.solve(&gs))
+                <= (settings.cost_tolerance * point.cost).max(settings.decrease_tolerance)
         {
             break StopReason::Cost;
         }

@@ -208,7 +208,8 @@ pub enum StopReason {
     /// parameters.
     Step,
     /// Converged: the relative cost decrease of the last step and its prediction, or the
-    /// decrease a full Gauss-Newton step would bring, are below the cost tolerance.
+    /// decrease a full Gauss-Newton step would bring, are below the cost tolerance (or that
+    /// decrease is below [`STATISTICAL_TOLERANCE`]).
     Cost,
     /// The iteration limit was reached.
     MaxIterations,
@@ -290,6 +291,17 @@ pub const NOISE_CHANGE_TOLERANCE: f64 = 0.1;
 /// its square). Those runs only need residuals close enough to the final ones for the
 /// noise fit: a gradient cosine of 1e-4 leaves the cost within about 1e-7 of its minimum.
 pub(crate) const LOOSE_TOLERANCE: f64 = 1e-4;
+
+/// Decrease of the cost (twice the negative log-likelihood) a full Gauss-Newton step would
+/// still bring, below which a run stops whatever the relative tolerances ([`StopReason::Cost`]).
+/// That decrease is `d^T F d` for the remaining step `d` with `F` the Gauss-Newton matrix,
+/// which is the Fisher information of the parameters: below 1e-5 the estimate is within
+/// `sqrt(1e-5)`, 0.3 % of a standard deviation (Mahalanobis), of the converged one, far below
+/// its statistical error. On twenty analyzer and five held 10-hit paper-case-1 campaigns
+/// (1 % noise) it saved one likelihood evaluation of thirteen in every refinement and moved
+/// every parameter by at most 2.6e-3 of its standard deviation (1.5e-6 relative), the
+/// standard deviations by at most 1.4e-6 and the modal parameters by 5e-7 relative.
+pub const STATISTICAL_TOLERANCE: f64 = 1e-5;
 
 /// Estimated value and standard deviation of one mode's parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -712,6 +724,7 @@ impl Refiner {
             gradient_tolerance: self.gradient_tolerance,
             step_tolerance: self.step_tolerance,
             cost_tolerance: self.cost_tolerance,
+            decrease_tolerance: STATISTICAL_TOLERANCE,
         };
         // Before the last run the parameters need not be converged tightly: the noise
         // levels move them only at second order.
