@@ -1029,7 +1029,7 @@ impl FrfRefiner {
                 })
             };
             let start = eval(&theta)?;
-            Some(lm::minimize(theta, start, settings, mu, eval))
+            Some(lm::minimize(theta, start, settings, mu, |t, _| eval(t)))
         };
 
         // First run: weights from the start's residuals (see the module docs).

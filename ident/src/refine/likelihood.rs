@@ -37,7 +37,7 @@ pub(crate) struct Noise {
 }
 
 impl Noise {
-    fn errors_in_variables(&self) -> bool {
+    pub(crate) fn errors_in_variables(&self) -> bool {
         self.inputs.iter().any(|&s| s > 0.0)
     }
 }
@@ -51,6 +51,10 @@ pub(crate) enum Want {
     /// includes the parameter dependence of the errors-in-variables weighting (exact
     /// Jacobian of the cost); without it, the matrix is the expected Fisher information.
     Jacobian { weight_derivative: bool },
+    /// `Jacobian { weight_derivative: true }` and, from the same pass, the expected Fisher
+    /// information: bit for bit the matrix of `Jacobian { weight_derivative: false }` at the
+    /// same point (the same rows without their weight-derivative terms).
+    JacobianAndFisher,
 }
 
 /// Result of one evaluation.
@@ -64,6 +68,8 @@ pub(crate) struct Evaluation {
     pub fisher: Option<DMatrix<f64>>,
     /// `J^T r` (half the gradient of the cost).
     pub gradient: Option<DVector<f64>>,
+    /// With [`Want::JacobianAndFisher`], the expected Fisher information.
+    pub expected_fisher: Option<DMatrix<f64>>,
     /// Unwhitened residuals per hit (m x bins), if kept.
     pub residuals: Option<Vec<DMatrix<C64>>>,
     /// Per group, `|G_il|^2` (row `i + l m`) per bin, if residuals are kept.
@@ -242,6 +248,31 @@ pub(crate) fn eliminate_nuisance(
     (f, jt * r)
 }
 
+/// `jtj -= J^T X (X^T X)^-1 X^T J` on the upper triangle (`np` x `np`, row-major) for one
+/// hit's `J^T X` (`np` x `s`, row-major); `t` is scratch of its size.
+fn subtract_nuisance(jtx_h: &[f64], xtx_inv: &DMatrix<f64>, t: &mut [f64], jtj: &mut [f64]) {
+    let s = xtx_inv.nrows();
+    let np = jtx_h.len() / s;
+    for p in 0..np {
+        for k in 0..s {
+            let mut acc = 0.0;
+            for q in 0..s {
+                acc += jtx_h[p * s + q] * xtx_inv[(q, k)];
+            }
+            t[p * s + k] = acc;
+        }
+    }
+    for p in 0..np {
+        for q in p..np {
+            let mut acc = 0.0;
+            for k in 0..s {
+                acc += t[p * s + k] * jtx_h[q * s + k];
+            }
+            jtj[p * np + q] -= acc;
+        }
+    }
+}
+
 /// One output's Jacobian row of one hit (`out`: `npp` real parts, then `npp` imaginary
 /// parts): `sum_q xi_q S_q + sum_t c_t W_t` with the real transient terms `S_q` and the
 /// complex terms `W_t`, both laid out per chunk of `LANES` parameters (`sw`: `xi.len()` terms
@@ -366,7 +397,11 @@ pub(crate) fn evaluate(
     let jac = match want {
         Want::Cost => None,
         Want::Jacobian { weight_derivative } => Some(weight_derivative && eiv),
+        Want::JacobianAndFisher => Some(eiv),
     };
+    // The expected Fisher information as a second matrix, from the rows without the weight
+    // derivative; without errors in variables it is the first one.
+    let second = want == Want::JacobianAndFisher && eiv;
     let derivs = jac.map(|_| {
         model
             .derivatives
@@ -388,6 +423,7 @@ pub(crate) fn evaluate(
     // Upper triangle of `sum_h J_h^T J_h` over all groups; the nuisance terms are
     // subtracted per hit and the lower triangle mirrored at the end.
     let mut jtj = vec![0.0; np * np];
+    let mut jtj2 = vec![0.0; if second { np * np } else { 0 }];
     for group in &spectra.groups {
         let nb = group.bins.len();
         let rows = 2 * nb * m;
@@ -612,6 +648,9 @@ pub(crate) fn evaluate(
         let cap = hits_here * 2 * m * BLOCK_BINS.min(nb);
         let mut jblk = vec![0.0; np * cap];
         let mut jri = vec![0.0; np2];
+        let mut jblk2 = vec![0.0; if second { np * cap } else { 0 }];
+        let mut jri2 = vec![0.0; np2];
+        let mut jtx2 = vec![0.0; if second { hits_here * np * s } else { 0 }];
         for (bi, bin) in group.bins.iter().enumerate() {
             let res = slice(&cache.res, bi, s * s);
             let cr = slice(&cache.cr, bi, m * s);
@@ -824,14 +863,9 @@ pub(crate) fn evaluate(
                 }
                 for i in 0..m {
                     // Transient terms (real coefficients) first, then the complex ones.
-                    row_kernel(
-                        &sw[i * chunks * s * 2 * LANES..(i + 1) * chunks * s * 2 * LANES],
-                        xi_h,
-                        &ww[i * chunks * nc * 2 * LANES..(i + 1) * chunks * nc * 2 * LANES],
-                        nc,
-                        &coef[..complex_terms(i)],
-                        &mut jri,
-                    );
+                    let sw_i = &sw[i * chunks * s * 2 * LANES..(i + 1) * chunks * s * 2 * LANES];
+                    let ww_i = &ww[i * chunks * nc * 2 * LANES..(i + 1) * chunks * nc * 2 * LANES];
+                    row_kernel(sw_i, xi_h, ww_i, nc, &coef[..complex_terms(i)], &mut jri);
                     #[cfg(test)]
                     {
                         let ro = row(bi, m, i);
@@ -845,6 +879,14 @@ pub(crate) fn evaluate(
                     for (p, (&a, &b)) in j_re[..np].iter().zip(j_im).enumerate() {
                         jblk[p * cap + ro] = a;
                         jblk[p * cap + ro + 1] = b;
+                    }
+                    if second {
+                        row_kernel(sw_i, xi_h, ww_i, nc, &coef[..r], &mut jri2);
+                        let (j_re, j_im) = jri2.split_at(npp);
+                        for (p, (&a, &b)) in j_re[..np].iter().zip(j_im).enumerate() {
+                            jblk2[p * cap + ro] = a;
+                            jblk2[p * cap + ro + 1] = b;
+                        }
                     }
                 }
             }
@@ -870,30 +912,37 @@ pub(crate) fn evaluate(
                         jtr[slot * np + p] += dot(jp, r_seg);
                     }
                 }
+                if second {
+                    for p in 0..np {
+                        let cp = &jblk2[p * cap..p * cap + used];
+                        for q in p..np {
+                            jtj2[p * np + q] += dot(cp, &jblk2[q * cap..q * cap + used]);
+                        }
+                    }
+                    for slot in 0..hits_here {
+                        let jtx_h = &mut jtx2[slot * np * s..(slot + 1) * np * s];
+                        for p in 0..np {
+                            let jp = &jblk2[p * cap + slot * seg..p * cap + (slot + 1) * seg];
+                            for q in 0..s {
+                                jtx_h[p * s + q] +=
+                                    dot(jp, &xreal[q * rows + first..q * rows + first + seg]);
+                            }
+                        }
+                    }
+                }
             }
         }
         // `J^T J - J^T X (X^T X)^-1 X^T J` per hit (upper triangle), `J^T r`.
         let mut t = vec![0.0; np * s];
         for slot in 0..hits_here {
             let jtx_h = &jtx[slot * np * s..(slot + 1) * np * s];
+            subtract_nuisance(jtx_h, &xtx_inv, &mut t, &mut jtj);
             for p in 0..np {
-                for k in 0..s {
-                    let mut acc = 0.0;
-                    for q in 0..s {
-                        acc += jtx_h[p * s + q] * xtx_inv[(q, k)];
-                    }
-                    t[p * s + k] = acc;
-                }
-            }
-            for p in 0..np {
-                for q in p..np {
-                    let mut acc = 0.0;
-                    for k in 0..s {
-                        acc += t[p * s + k] * jtx_h[q * s + k];
-                    }
-                    jtj[p * np + q] -= acc;
-                }
                 gradient[p] += jtr[slot * np + p];
+            }
+            if second {
+                let jtx_h = &jtx2[slot * np * s..(slot + 1) * np * s];
+                subtract_nuisance(jtx_h, &xtx_inv, &mut t, &mut jtj2);
             }
         }
         #[cfg(test)]
@@ -907,10 +956,18 @@ pub(crate) fn evaluate(
             fisher[(q, p)] = jtj[p * np + q];
         }
     }
+    let expected_fisher = (want == Want::JacobianAndFisher).then(|| {
+        if second {
+            DMatrix::from_fn(np, np, |p, q| jtj2[p.min(q) * np + p.max(q)])
+        } else {
+            fisher.clone()
+        }
+    });
     let has_jac = jac.is_some();
     Ok(Evaluation {
         cost,
         xi,
+        expected_fisher,
         fisher: has_jac.then_some(fisher),
         gradient: has_jac.then_some(gradient),
         residuals,
