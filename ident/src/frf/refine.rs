@@ -1006,6 +1006,7 @@ impl FrfRefiner {
             gradient_tolerance: self.gradient_tolerance,
             step_tolerance: self.step_tolerance,
             cost_tolerance: self.cost_tolerance,
+            decrease_tolerance: 0.0,
         };
         let loose = lm::Settings {
             gradient_tolerance: self.gradient_tolerance.max(LOOSE_TOLERANCE),
@@ -1028,7 +1029,7 @@ impl FrfRefiner {
                 })
             };
             let start = eval(&theta)?;
-            Some(lm::minimize(theta, start, settings, mu, eval))
+            Some(lm::minimize(theta, start, settings, mu, |t, _| eval(t)))
         };
 
         // First run: weights from the start's residuals (see the module docs).

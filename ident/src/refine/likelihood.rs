@@ -37,7 +37,7 @@ pub(crate) struct Noise {
 }
 
 impl Noise {
-    fn errors_in_variables(&self) -> bool {
+    pub(crate) fn errors_in_variables(&self) -> bool {
         self.inputs.iter().any(|&s| s > 0.0)
     }
 }
@@ -51,6 +51,10 @@ pub(crate) enum Want {
     /// includes the parameter dependence of the errors-in-variables weighting (exact
     /// Jacobian of the cost); without it, the matrix is the expected Fisher information.
     Jacobian { weight_derivative: bool },
+    /// `Jacobian { weight_derivative: true }` and, from the same pass, the expected Fisher
+    /// information: bit for bit the matrix of `Jacobian { weight_derivative: false }` at the
+    /// same point (the same rows without their weight-derivative terms).
+    JacobianAndFisher,
 }
 
 /// Result of one evaluation.
@@ -64,6 +68,8 @@ pub(crate) struct Evaluation {
     pub fisher: Option<DMatrix<f64>>,
     /// `J^T r` (half the gradient of the cost).
     pub gradient: Option<DVector<f64>>,
+    /// With [`Want::JacobianAndFisher`], the expected Fisher information.
+    pub expected_fisher: Option<DMatrix<f64>>,
     /// Unwhitened residuals per hit (m x bins), if kept.
     pub residuals: Option<Vec<DMatrix<C64>>>,
     /// Per group, `|G_il|^2` (row `i + l m`) per bin, if residuals are kept.
@@ -242,14 +248,79 @@ pub(crate) fn eliminate_nuisance(
     (f, jt * r)
 }
 
-/// `(re, im) += w c` elementwise, `w` given by its real and imaginary parts.
+/// `jtj -= J^T X (X^T X)^-1 X^T J` on the upper triangle (`np` x `np`, row-major) for one
+/// hit's `J^T X` (`np` x `s`, row-major); `t` is scratch of its size.
+fn subtract_nuisance(jtx_h: &[f64], xtx_inv: &DMatrix<f64>, t: &mut [f64], jtj: &mut [f64]) {
+    let s = xtx_inv.nrows();
+    let np = jtx_h.len() / s;
+    for p in 0..np {
+        for k in 0..s {
+            let mut acc = 0.0;
+            for q in 0..s {
+                acc += jtx_h[p * s + q] * xtx_inv[(q, k)];
+            }
+            t[p * s + k] = acc;
+        }
+    }
+    for p in 0..np {
+        for q in p..np {
+            let mut acc = 0.0;
+            for k in 0..s {
+                acc += t[p * s + k] * jtx_h[q * s + k];
+            }
+            jtj[p * np + q] -= acc;
+        }
+    }
+}
+
+/// One output's Jacobian row of one hit (`out`: `npp` real parts, then `npp` imaginary
+/// parts): `sum_q xi_q S_q + sum_t c_t W_t` with the real transient terms `S_q` and the
+/// complex terms `W_t`, both laid out per chunk of `LANES` parameters (`sw`: `xi.len()` terms
+/// per chunk, `ww`: `nc` terms per chunk of which the first `coef.len()` are used). The
+/// chunk's sums stay in registers; each element is summed in term order.
 #[inline]
-fn complex_axpy(re: &mut [f64], im: &mut [f64], w_re: &[f64], w_im: &[f64], c: C64) {
-    let n = re.len();
-    let (im, w_re, w_im) = (&mut im[..n], &w_re[..n], &w_im[..n]);
-    for p in 0..n {
-        re[p] += w_re[p] * c.re - w_im[p] * c.im;
-        im[p] += w_re[p] * c.im + w_im[p] * c.re;
+fn row_kernel(sw: &[f64], xi: &[f64], ww: &[f64], nc: usize, coef: &[C64], out: &mut [f64]) {
+    let npp = out.len() / 2;
+    let s = xi.len();
+    let (out_re, out_im) = out.split_at_mut(npp);
+    for ((o_re, o_im), (s_blk, w_blk)) in out_re
+        .chunks_exact_mut(LANES)
+        .zip(out_im.chunks_exact_mut(LANES))
+        .zip(
+            sw.chunks_exact(s * 2 * LANES)
+                .zip(ww.chunks_exact(nc * 2 * LANES)),
+        )
+    {
+        let mut re = [0.0; LANES];
+        let mut im = [0.0; LANES];
+        let mut terms = s_blk.chunks_exact(2 * LANES).zip(xi);
+        if let Some((w, &x)) = terms.next() {
+            for k in 0..LANES {
+                re[k] = w[k] * x;
+                im[k] = w[LANES + k] * x;
+            }
+        }
+        for (w, &x) in terms {
+            let (wr, wi) = w.split_at(LANES);
+            for k in 0..LANES {
+                re[k] += wr[k] * x;
+            }
+            for k in 0..LANES {
+                im[k] += wi[k] * x;
+            }
+        }
+        for (w, c) in w_blk.chunks_exact(2 * LANES).zip(coef) {
+            let (wr, wi) = w.split_at(LANES);
+            let (cr, ci) = (c.re, c.im);
+            for k in 0..LANES {
+                re[k] += wr[k] * cr - wi[k] * ci;
+            }
+            for k in 0..LANES {
+                im[k] += wr[k] * ci + wi[k] * cr;
+            }
+        }
+        o_re.copy_from_slice(&re);
+        o_im.copy_from_slice(&im);
     }
 }
 
@@ -258,6 +329,10 @@ fn complex_axpy(re: &mut [f64], im: &mut [f64], w_re: &[f64], w_im: &[f64], c: C
 fn row(bi: usize, m: usize, i: usize) -> usize {
     2 * (bi * m + i)
 }
+
+/// Parameter vectors of the per-bin products are padded with zeros to a multiple of this
+/// (whole chunks, no remainder loops; the padding is never stored).
+const LANES: usize = 2;
 
 /// Bins whose Jacobian rows are reduced together (bounds the memory of long records).
 const BLOCK_BINS: usize = 64;
@@ -355,7 +430,11 @@ pub(crate) fn evaluate(
     let jac = match want {
         Want::Cost => None,
         Want::Jacobian { weight_derivative } => Some(weight_derivative && eiv),
+        Want::JacobianAndFisher => Some(eiv),
     };
+    // The expected Fisher information as a second matrix, from the rows without the weight
+    // derivative; without errors in variables it is the first one.
+    let second = want == Want::JacobianAndFisher && eiv;
     let derivs = jac.map(|_| {
         model
             .derivatives
@@ -377,6 +456,7 @@ pub(crate) fn evaluate(
     // Upper triangle of `sum_h J_h^T J_h` over all groups; the nuisance terms are
     // subtracted per hit and the lower triangle mirrored at the end.
     let mut jtj = vec![0.0; np * np];
+    let mut jtj2 = vec![0.0; if second { np * np } else { 0 }];
     for group in &spectra.groups {
         let nb = group.bins.len();
         let rows = 2 * nb * m;
@@ -536,12 +616,13 @@ pub(crate) fn evaluate(
         };
         // The model's derivatives are real; they are laid out with the parameter index
         // innermost, so that the per-bin products below run over contiguous parameters.
+        let npp = np.div_ceil(LANES) * LANES;
         let by_param = |rows: usize, cols: usize, get: &dyn Fn(usize, usize, usize) -> f64| {
-            let mut out = vec![0.0; rows * cols * np];
+            let mut out = vec![0.0; rows * cols * npp];
             for a in 0..rows {
                 for b in 0..cols {
                     for p in 0..np {
-                        out[(a * cols + b) * np + p] = get(p, a, b);
+                        out[(a * cols + b) * npp + p] = get(p, a, b);
                     }
                 }
             }
@@ -569,13 +650,13 @@ pub(crate) fn evaluate(
             .iter()
             .map(|_| DMatrix::zeros(rows, np))
             .collect();
-        // Per bin, `[(a * cols + b) * np + p]`: `dC + C (z I - A_d)^-1 dA_d` (m x s, real and
+        // Per bin, `[(a * cols + b) * npp + p]`: `dC + C (z I - A_d)^-1 dA_d` (m x s, real and
         // imaginary parts), `dG` (m x r) and, band-limited, `E_p G` (n x r).
-        let mut ma_re = vec![0.0; m * s * np];
-        let mut ma_im = vec![0.0; m * s * np];
-        let mut dg = vec![ZERO; m * r * np];
-        let mut eg = vec![ZERO; n * r * np];
-        let mut factor = vec![ZERO; np];
+        let mut ma_re = vec![0.0; m * s * npp];
+        let mut ma_im = vec![0.0; m * s * npp];
+        let mut dg = vec![ZERO; m * r * npp];
+        let mut eg = vec![ZERO; n * r * npp];
+        let mut factor = vec![ZERO; npp];
         let mut bw = vec![ZERO; m * r];
         let mut aw = vec![ZERO; m * r];
         // Complex terms of row `i`: the `r` inputs and, with the weight derivative, the
@@ -583,8 +664,15 @@ pub(crate) fn evaluate(
         let nc = r + if weight_derivative { m } else { 0 };
         let mut coef = vec![ZERO; nc];
         // Per term, the real parts of the parameters' weights followed by the imaginary
-        // parts (`2 np` values).
-        let np2 = 2 * np;
+        // parts (`2 npp` values).
+        let np2 = 2 * npp;
+        // `sw` and `ww` are laid out for `row_kernel`: per output `i` and chunk `c` of
+        // `LANES` parameters, the terms one after another, each as `LANES` real parts then
+        // `LANES` imaginary parts.
+        let chunks = npp / LANES;
+        let ww_at = |i: usize, t: usize, p: usize| {
+            ((i * chunks + p / LANES) * nc + t) * 2 * LANES + p % LANES
+        };
         let mut ww = vec![0.0; m * nc * np2];
         let mut sw = vec![0.0; m * s * np2];
         // Jacobian rows of a block of bins, column-major (one column per parameter, rows
@@ -593,6 +681,9 @@ pub(crate) fn evaluate(
         let cap = hits_here * 2 * m * BLOCK_BINS.min(nb);
         let mut jblk = vec![0.0; np * cap];
         let mut jri = vec![0.0; np2];
+        let mut jblk2 = vec![0.0; if second { np * cap } else { 0 }];
+        let mut jri2 = vec![0.0; np2];
+        let mut jtx2 = vec![0.0; if second { hits_here * np * s } else { 0 }];
         for (bi, bin) in group.bins.iter().enumerate() {
             let (res, cr, rb, qi) = if cache.full {
                 (
@@ -612,17 +703,21 @@ pub(crate) fn evaluate(
             // dT/dtheta_p (z I - A_d)^-1 with T = C (z I - A_d)^-1 z: `dC + C R dA_d`.
             for i in 0..m {
                 for q in 0..s {
-                    let o = (i * s + q) * np;
-                    let (are, aim) = (&mut ma_re[o..o + np], &mut ma_im[o..o + np]);
-                    are.copy_from_slice(&dc[o..o + np]);
-                    aim.fill(0.0);
-                    for t in 0..s {
-                        let c = cr[i + t * m];
-                        let d = &dad[(t * s + q) * np..(t * s + q + 1) * np];
-                        for p in 0..np {
-                            are[p] += c.re * d[p];
-                            aim[p] += c.im * d[p];
+                    for c0 in (0..npp).step_by(LANES) {
+                        let o = (i * s + q) * npp + c0;
+                        let mut are = [0.0; LANES];
+                        are.copy_from_slice(&dc[o..o + LANES]);
+                        let mut aim = [0.0; LANES];
+                        for t in 0..s {
+                            let c = cr[i + t * m];
+                            let d = &dad[(t * s + q) * npp + c0..(t * s + q) * npp + c0 + LANES];
+                            for k in 0..LANES {
+                                are[k] += c.re * d[k];
+                                aim[k] += c.im * d[k];
+                            }
                         }
+                        ma_re[o..o + LANES].copy_from_slice(&are);
+                        ma_im[o..o + LANES].copy_from_slice(&aim);
                     }
                 }
             }
@@ -631,18 +726,18 @@ pub(crate) fn evaluate(
                     // dG = dD + (dC + C R dA_d) R B_d + C R dB_d.
                     for i in 0..m {
                         for li in 0..r {
-                            let o = (i * r + li) * np;
-                            let out = &mut dg[o..o + np];
-                            for (v, &d) in out.iter_mut().zip(&dd[o..o + np]) {
+                            let o = (i * r + li) * npp;
+                            let out = &mut dg[o..o + npp];
+                            for (v, &d) in out.iter_mut().zip(&dd[o..o + npp]) {
                                 *v = C64::new(d, 0.0);
                             }
                             for q in 0..s {
                                 let b = rb[q + li * s];
                                 let c = cr[i + q * m];
-                                let a = (i * s + q) * np;
-                                let (are, aim) = (&ma_re[a..a + np], &ma_im[a..a + np]);
-                                let e = &dbd[(q * r + li) * np..(q * r + li + 1) * np];
-                                for p in 0..np {
+                                let a = (i * s + q) * npp;
+                                let (are, aim) = (&ma_re[a..a + npp], &ma_im[a..a + npp]);
+                                let e = &dbd[(q * r + li) * npp..(q * r + li + 1) * npp];
+                                for p in 0..npp {
                                     out[p] += C64::new(are[p], aim[p]) * b + c * e[p];
                                 }
                             }
@@ -661,12 +756,12 @@ pub(crate) fn evaluate(
                     }
                     for j in 0..n {
                         for li in 0..r {
-                            let out = &mut eg[(j * r + li) * np..(j * r + li + 1) * np];
+                            let out = &mut eg[(j * r + li) * npp..(j * r + li + 1) * npp];
                             out.fill(ZERO);
                             for k in 0..n {
                                 let gk = g[k + li * m];
-                                let e = &basis[(j * n + k) * np..(j * n + k + 1) * np];
-                                for p in 0..np {
+                                let e = &basis[(j * n + k) * npp..(j * n + k + 1) * npp];
+                                for p in 0..npp {
                                     out[p] += gk * e[p];
                                 }
                             }
@@ -674,13 +769,13 @@ pub(crate) fn evaluate(
                     }
                     for i in 0..n {
                         for li in 0..r {
-                            let o = (i * r + li) * np;
-                            let out = &mut dg[o..o + np];
+                            let o = (i * r + li) * npp;
+                            let out = &mut dg[o..o + npp];
                             out.fill(ZERO);
                             for j in 0..n {
                                 let qij = qi[i + j * n];
-                                let e = &eg[(j * r + li) * np..(j * r + li + 1) * np];
-                                for p in 0..np {
+                                let e = &eg[(j * r + li) * npp..(j * r + li + 1) * npp];
+                                for p in 0..npp {
                                     out[p] += qij * e[p];
                                 }
                             }
@@ -697,52 +792,55 @@ pub(crate) fn evaluate(
                 for k in 0..i {
                     let lik = l[i + k * m];
                     for q in 0..s {
-                        let (oi, ok) = ((i * s + q) * np, (k * s + q) * np);
-                        for p in 0..np {
+                        let (oi, ok) = ((i * s + q) * npp, (k * s + q) * npp);
+                        for p in 0..npp {
                             let (kr, ki) = (ma_re[ok + p], ma_im[ok + p]);
                             ma_re[oi + p] -= lik.re * kr - lik.im * ki;
                             ma_im[oi + p] -= lik.re * ki + lik.im * kr;
                         }
                     }
                     for li in 0..r {
-                        let (oi, ok) = ((i * r + li) * np, (k * r + li) * np);
-                        for p in 0..np {
+                        let (oi, ok) = ((i * r + li) * npp, (k * r + li) * npp);
+                        for p in 0..npp {
                             let v = dg[ok + p];
                             dg[oi + p] -= lik * v;
                         }
                     }
                 }
                 let d = l[i + i * m].re;
-                for v in &mut ma_re[i * s * np..(i + 1) * s * np] {
+                for v in &mut ma_re[i * s * npp..(i + 1) * s * npp] {
                     *v /= d;
                 }
-                for v in &mut ma_im[i * s * np..(i + 1) * s * np] {
+                for v in &mut ma_im[i * s * npp..(i + 1) * s * npp] {
                     *v /= d;
                 }
-                for v in &mut dg[i * r * np..(i + 1) * r * np] {
+                for v in &mut dg[i * r * npp..(i + 1) * r * npp] {
                     *v /= d;
                 }
             }
             // Transient terms: `-sc L^-1 (dC + C R dA_d) R z`, the derivative of the
             // whitened transient regressor, whose coefficients are the real `xi`.
+            // Laid out for `row_kernel`: per output and chunk of parameters, the `s` terms.
             for i in 0..m {
                 for q2 in 0..s {
-                    let o = (i * s + q2) * np2;
-                    let (outr, outi) = sw[o..o + np2].split_at_mut(np);
-                    outr.fill(0.0);
-                    outi.fill(0.0);
-                    for q in 0..s {
-                        let rzq = res[q + q2 * s] * bin.z;
-                        let a = (i * s + q) * np;
-                        let (are, aim) = (&ma_re[a..a + np], &ma_im[a..a + np]);
-                        for p in 0..np {
-                            outr[p] += are[p] * rzq.re - aim[p] * rzq.im;
-                            outi[p] += are[p] * rzq.im + aim[p] * rzq.re;
+                    for c in 0..chunks {
+                        let mut outr = [0.0; LANES];
+                        let mut outi = [0.0; LANES];
+                        for q in 0..s {
+                            let rzq = res[q + q2 * s] * bin.z;
+                            let a = (i * s + q) * npp + c * LANES;
+                            let (are, aim) = (&ma_re[a..a + LANES], &ma_im[a..a + LANES]);
+                            for k in 0..LANES {
+                                outr[k] += are[k] * rzq.re - aim[k] * rzq.im;
+                                outi[k] += are[k] * rzq.im + aim[k] * rzq.re;
+                            }
                         }
-                    }
-                    for (vr, vi) in outr.iter_mut().zip(outi.iter_mut()) {
-                        *vr *= -sc;
-                        *vi *= -sc;
+                        let o = ((i * chunks + c) * s + q2) * 2 * LANES;
+                        let dst = &mut sw[o..o + 2 * LANES];
+                        for k in 0..LANES {
+                            dst[k] = outr[k] * -sc;
+                            dst[LANES + k] = outi[k] * -sc;
+                        }
                     }
                 }
             }
@@ -752,12 +850,12 @@ pub(crate) fn evaluate(
             // (Cholesky derivative).
             for i in 0..m {
                 for t in 0..r {
-                    let base = (i * nc + t) * np2;
-                    let o = (i * r + t) * np;
-                    for p in 0..np {
+                    let o = (i * r + t) * npp;
+                    for p in 0..npp {
                         let w = dg[o + p] * -sc;
-                        ww[base + p] = w.re;
-                        ww[base + np + p] = w.im;
+                        let at = ww_at(i, t, p);
+                        ww[at] = w.re;
+                        ww[at + LANES] = w.im;
                     }
                 }
             }
@@ -771,7 +869,7 @@ pub(crate) fn evaluate(
                 for p in 0..np {
                     for li in 0..r {
                         for i in 0..m {
-                            aw[i + li * m] = dg[(i * r + li) * np + p] * noise.inputs[li];
+                            aw[i + li * m] = dg[(i * r + li) * npp + p] * noise.inputs[li];
                         }
                     }
                     for j in 0..m {
@@ -782,9 +880,9 @@ pub(crate) fn evaluate(
                                     + bw[i + li * m] * aw[j + li * m].conj();
                             }
                             let w = if i == j { sij * 0.5 } else { sij } * -sc;
-                            let base = (i * nc + r + j) * np2;
-                            ww[base + p] = w.re;
-                            ww[base + np + p] = w.im;
+                            let at = ww_at(i, r + j, p);
+                            ww[at] = w.re;
+                            ww[at + LANES] = w.im;
                         }
                     }
                 }
@@ -806,35 +904,30 @@ pub(crate) fn evaluate(
                 }
                 for i in 0..m {
                     // Transient terms (real coefficients) first, then the complex ones.
-                    let base = i * s * np2;
-                    for (a, &w) in jri.iter_mut().zip(&sw[base..base + np2]) {
-                        *a = w * xi_h[0];
-                    }
-                    for (q, &xq) in xi_h.iter().enumerate().skip(1) {
-                        let base = (i * s + q) * np2;
-                        for (a, &w) in jri.iter_mut().zip(&sw[base..base + np2]) {
-                            *a += w * xq;
-                        }
-                    }
-                    for (t, c) in coef[..complex_terms(i)].iter().enumerate() {
-                        let base = (i * nc + t) * np2;
-                        let (w_re, w_im) = ww[base..base + np2].split_at(np);
-                        let (j_re, j_im) = jri.split_at_mut(np);
-                        complex_axpy(j_re, j_im, w_re, w_im, *c);
-                    }
+                    let sw_i = &sw[i * chunks * s * 2 * LANES..(i + 1) * chunks * s * 2 * LANES];
+                    let ww_i = &ww[i * chunks * nc * 2 * LANES..(i + 1) * chunks * nc * 2 * LANES];
+                    row_kernel(sw_i, xi_h, ww_i, nc, &coef[..complex_terms(i)], &mut jri);
                     #[cfg(test)]
                     {
                         let ro = row(bi, m, i);
                         for p in 0..np {
                             jts[slot][(ro, p)] = jri[p];
-                            jts[slot][(ro + 1, p)] = jri[np + p];
+                            jts[slot][(ro + 1, p)] = jri[npp + p];
                         }
                     }
                     let ro = slot * seg + (bi - b0) * 2 * m + 2 * i;
-                    let (j_re, j_im) = jri.split_at(np);
-                    for (p, (&a, &b)) in j_re.iter().zip(j_im).enumerate() {
+                    let (j_re, j_im) = jri.split_at(npp);
+                    for (p, (&a, &b)) in j_re[..np].iter().zip(j_im).enumerate() {
                         jblk[p * cap + ro] = a;
                         jblk[p * cap + ro + 1] = b;
+                    }
+                    if second {
+                        row_kernel(sw_i, xi_h, ww_i, nc, &coef[..r], &mut jri2);
+                        let (j_re, j_im) = jri2.split_at(npp);
+                        for (p, (&a, &b)) in j_re[..np].iter().zip(j_im).enumerate() {
+                            jblk2[p * cap + ro] = a;
+                            jblk2[p * cap + ro + 1] = b;
+                        }
                     }
                 }
             }
@@ -860,30 +953,37 @@ pub(crate) fn evaluate(
                         jtr[slot * np + p] += dot(jp, r_seg);
                     }
                 }
+                if second {
+                    for p in 0..np {
+                        let cp = &jblk2[p * cap..p * cap + used];
+                        for q in p..np {
+                            jtj2[p * np + q] += dot(cp, &jblk2[q * cap..q * cap + used]);
+                        }
+                    }
+                    for slot in 0..hits_here {
+                        let jtx_h = &mut jtx2[slot * np * s..(slot + 1) * np * s];
+                        for p in 0..np {
+                            let jp = &jblk2[p * cap + slot * seg..p * cap + (slot + 1) * seg];
+                            for q in 0..s {
+                                jtx_h[p * s + q] +=
+                                    dot(jp, &xreal[q * rows + first..q * rows + first + seg]);
+                            }
+                        }
+                    }
+                }
             }
         }
         // `J^T J - J^T X (X^T X)^-1 X^T J` per hit (upper triangle), `J^T r`.
         let mut t = vec![0.0; np * s];
         for slot in 0..hits_here {
             let jtx_h = &jtx[slot * np * s..(slot + 1) * np * s];
+            subtract_nuisance(jtx_h, &xtx_inv, &mut t, &mut jtj);
             for p in 0..np {
-                for k in 0..s {
-                    let mut acc = 0.0;
-                    for q in 0..s {
-                        acc += jtx_h[p * s + q] * xtx_inv[(q, k)];
-                    }
-                    t[p * s + k] = acc;
-                }
-            }
-            for p in 0..np {
-                for q in p..np {
-                    let mut acc = 0.0;
-                    for k in 0..s {
-                        acc += t[p * s + k] * jtx_h[q * s + k];
-                    }
-                    jtj[p * np + q] -= acc;
-                }
                 gradient[p] += jtr[slot * np + p];
+            }
+            if second {
+                let jtx_h = &jtx2[slot * np * s..(slot + 1) * np * s];
+                subtract_nuisance(jtx_h, &xtx_inv, &mut t, &mut jtj2);
             }
         }
         #[cfg(test)]
@@ -897,10 +997,18 @@ pub(crate) fn evaluate(
             fisher[(q, p)] = jtj[p * np + q];
         }
     }
+    let expected_fisher = (want == Want::JacobianAndFisher).then(|| {
+        if second {
+            DMatrix::from_fn(np, np, |p, q| jtj2[p.min(q) * np + p.max(q)])
+        } else {
+            fisher.clone()
+        }
+    });
     let has_jac = jac.is_some();
     Ok(Evaluation {
         cost,
         xi,
+        expected_fisher,
         fisher: has_jac.then_some(fisher),
         gradient: has_jac.then_some(gradient),
         residuals,

@@ -13,6 +13,9 @@ pub(crate) struct Settings {
     pub gradient_tolerance: f64,
     pub step_tolerance: f64,
     pub cost_tolerance: f64,
+    /// Absolute tolerance on the decrease of the cost a full Gauss-Newton step would bring
+    /// (0: only the relative `cost_tolerance`).
+    pub decrease_tolerance: f64,
 }
 
 /// What the cost function returns at a point: cost, Gauss-Newton matrix `J^T J` and
@@ -56,13 +59,14 @@ pub(crate) fn gradient_cosine(fisher: &DMatrix<f64>, gradient: &DVector<f64>, co
 }
 
 /// Minimizes from `theta` (which must be admissible, `start` is its evaluation) with
-/// initial damping `mu`.
+/// initial damping `mu`. `eval` also gets the decrease of the cost the step's quadratic model
+/// predicts (a hint that the point may be the last).
 pub(crate) fn minimize<E>(
     theta: DVector<f64>,
     start: Point<E>,
     settings: Settings,
     mu: f64,
-    mut eval: impl FnMut(&DVector<f64>) -> Option<Point<E>>,
+    mut eval: impl FnMut(&DVector<f64>, f64) -> Option<Point<E>>,
 ) -> Outcome<E> {
     let p = theta.len();
     let mut theta = theta;
@@ -93,7 +97,8 @@ pub(crate) fn minimize<E>(
             gn[(i, i)] += GAUSS_NEWTON_REGULARIZATION;
         }
         if let Some(chol) = gn.cholesky()
-            && gs.dot(&chol.solve(&gs)) <= settings.cost_tolerance * point.cost
+            && gs.dot(&chol.solve(&gs))
+                <= (settings.cost_tolerance * point.cost).max(settings.decrease_tolerance)
         {
             break StopReason::Cost;
         }
@@ -116,7 +121,7 @@ pub(crate) fn minimize<E>(
         let small_step =
             ds.norm() <= settings.step_tolerance * (theta_norm + settings.step_tolerance);
         let candidate = &theta + &delta;
-        let trial = eval(&candidate).filter(|t| t.cost.is_finite());
+        let trial = eval(&candidate, predicted).filter(|t| t.cost.is_finite());
         let actual = trial.as_ref().map(|t| point.cost - t.cost);
         match (trial, actual) {
             (Some(trial), Some(actual)) if actual > 0.0 && predicted > 0.0 => {

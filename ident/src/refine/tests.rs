@@ -171,6 +171,14 @@ fn check_jacobian_with_inputs(
                 false,
             )
             .unwrap();
+        // Both matrices from one pass: bit for bit those of the two separate evaluations.
+        let both = problem
+            .evaluate(&theta, &noise, Want::JacobianAndFisher, false)
+            .unwrap();
+        assert_eq!(both.fisher, ev.fisher);
+        assert_eq!(both.gradient, ev.gradient);
+        assert_eq!(both.expected_fisher, expected.fisher);
+        assert_eq!(both.cost.to_bits(), ev.cost.to_bits());
         let mut worst: f64 = 0.0;
         let mut worst_expected: f64 = 0.0;
         let mut worst_gradient: f64 = 0.0;
