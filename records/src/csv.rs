@@ -365,59 +365,14 @@ fn parse_lines<R: BufRead>(
             Some(_) => {}
         }
     };
-    let delim = detect_delimiter(&header_text);
-    let mut names: Vec<String> = split_line(&header_text, delim)
-        .map_err(|col| {
-            err(
-                Location {
-                    line: Some(header_line),
-                    column: Some(col),
-                    ..Location::default()
-                },
-                Problem::UnterminatedQuote,
-            )
-        })?
-        .into_iter()
-        .map(|c| c.into_owned())
-        .collect();
-    // Spreadsheets often end every line with a delimiter: an empty last
-    // header cell is then dropped, and so is an empty last cell of a row.
-    let trailing_delimiter = names.len() > 1 && names.last().is_some_and(|n| n.is_empty());
-    if trailing_delimiter {
-        names.pop();
-    }
+    let Header {
+        delim,
+        names,
+        trailing_delimiter,
+        time_scale,
+        mut channels,
+    } = parse_header(&header_text, header_line, path)?;
     let ncols = names.len();
-
-    // Columns: names, units, time column.
-    let mut time_scale = None;
-    let mut channels = Vec::with_capacity(ncols);
-    for (i, header) in names.iter().enumerate() {
-        let at = || Location::cell(header_line, i + 1, header);
-        let (bare, unit) = split_unit(header);
-        if bare.is_empty() {
-            return Err(err(at(), Problem::EmptyColumnName));
-        }
-        if let Some(scale) = time_column_scale(&bare, unit.as_deref()) {
-            if i != 0 {
-                return Err(err(at(), Problem::MisplacedTimeColumn));
-            }
-            time_scale =
-                Some(scale.map_err(|unit| err(at(), Problem::UnsupportedTimeUnit { unit }))?);
-            continue;
-        }
-        channels.push(Channel {
-            name: bare,
-            unit,
-            node: None,
-            direction: None,
-            id_line: None,
-            values: Vec::new(),
-            lines: None,
-        });
-    }
-    if channels.is_empty() {
-        return Err(err(Location::line(header_line), Problem::NoChannels));
-    }
     let first_channel_col = usize::from(time_scale.is_some());
 
     // Data rows.
@@ -490,6 +445,131 @@ fn parse_lines<R: BufRead>(
             }
         }
     }
+    finish(
+        path,
+        opts,
+        header_line,
+        &names,
+        delim,
+        time_scale,
+        Columns {
+            time,
+            time_model,
+            channels,
+            first_data_line,
+        },
+    )
+}
+
+/// The header row of a CSV record, read.
+struct Header {
+    delim: char,
+    /// Column names as written (an empty last one of a trailing delimiter dropped).
+    names: Vec<String>,
+    /// Every line ends with a delimiter (its empty last cell is dropped).
+    trailing_delimiter: bool,
+    /// Seconds per unit of the time column (column 1), if there is one.
+    time_scale: Option<f64>,
+    /// The channels, without values.
+    channels: Vec<Channel>,
+}
+
+/// Reads the header row `header_text` (line `header_line` of `path`): delimiter, names,
+/// units and the time column.
+fn parse_header(header_text: &str, header_line: usize, path: &Path) -> Result<Header, RecordError> {
+    let err = |at: Location, problem: Problem| parse_error(path, at, problem);
+    let delim = detect_delimiter(header_text);
+    let mut names: Vec<String> = split_line(header_text, delim)
+        .map_err(|col| {
+            err(
+                Location {
+                    line: Some(header_line),
+                    column: Some(col),
+                    ..Location::default()
+                },
+                Problem::UnterminatedQuote,
+            )
+        })?
+        .into_iter()
+        .map(|c| c.into_owned())
+        .collect();
+    // Spreadsheets often end every line with a delimiter: an empty last
+    // header cell is then dropped, and so is an empty last cell of a row.
+    let trailing_delimiter = names.len() > 1 && names.last().is_some_and(|n| n.is_empty());
+    if trailing_delimiter {
+        names.pop();
+    }
+    let ncols = names.len();
+
+    // Columns: names, units, time column.
+    let mut time_scale = None;
+    let mut channels = Vec::with_capacity(ncols);
+    for (i, header) in names.iter().enumerate() {
+        let at = || Location::cell(header_line, i + 1, header);
+        let (bare, unit) = split_unit(header);
+        if bare.is_empty() {
+            return Err(err(at(), Problem::EmptyColumnName));
+        }
+        if let Some(scale) = time_column_scale(&bare, unit.as_deref()) {
+            if i != 0 {
+                return Err(err(at(), Problem::MisplacedTimeColumn));
+            }
+            time_scale =
+                Some(scale.map_err(|unit| err(at(), Problem::UnsupportedTimeUnit { unit }))?);
+            continue;
+        }
+        channels.push(Channel {
+            name: bare,
+            unit,
+            node: None,
+            direction: None,
+            id_line: None,
+            values: Vec::new(),
+            lines: None,
+        });
+    }
+    if channels.is_empty() {
+        return Err(err(Location::line(header_line), Problem::NoChannels));
+    }
+    Ok(Header {
+        delim,
+        names,
+        trailing_delimiter,
+        time_scale,
+        channels,
+    })
+}
+
+/// The data rows of a CSV record, read.
+struct Columns {
+    /// Time column values (empty without one), in its unit.
+    time: Vec<f64>,
+    /// How the time column was printed.
+    time_model: PrintModel,
+    /// The channels with their values.
+    channels: Vec<Channel>,
+    /// Line of the first data row.
+    first_data_line: Option<usize>,
+}
+
+/// The record from its header and data rows: refuses a header-only file, checks the time
+/// axis against `opts` and sets the sampling.
+fn finish(
+    path: &Path,
+    opts: &ReadOptions,
+    header_line: usize,
+    names: &[String],
+    delim: char,
+    time_scale: Option<f64>,
+    columns: Columns,
+) -> Result<RecordFile, RecordError> {
+    let err = |at: Location, problem: Problem| parse_error(path, at, problem);
+    let Columns {
+        mut time,
+        time_model,
+        mut channels,
+        first_data_line,
+    } = columns;
     let Some(first_data_line) = first_data_line else {
         return Err(err(Location::line(header_line), Problem::HeaderOnly));
     };

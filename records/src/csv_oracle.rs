@@ -6,7 +6,9 @@ use std::path::Path;
 
 use super::*;
 
-/// The former `parse_csv`, unchanged but for its name.
+/// The former `parse_csv` (its row loop: whole file split into lines, one `Vec` of
+/// cells per row), around the header and sampling code it shares with the streaming
+/// reader ([`parse_header`], [`finish`]).
 pub(super) fn parse_csv_oracle(
     bytes: &[u8],
     path: &Path,
@@ -37,59 +39,14 @@ pub(super) fn parse_csv_oracle(
         }
     };
     let header_text = String::from_utf8_lossy(header_bytes);
-    let delim = detect_delimiter(&header_text);
-    let mut names: Vec<String> = split_line(&header_text, delim)
-        .map_err(|col| {
-            err(
-                Location {
-                    line: Some(header_line),
-                    column: Some(col),
-                    ..Location::default()
-                },
-                Problem::UnterminatedQuote,
-            )
-        })?
-        .into_iter()
-        .map(|c| c.into_owned())
-        .collect();
-    // Spreadsheets often end every line with a delimiter: an empty last
-    // header cell is then dropped, and so is an empty last cell of a row.
-    let trailing_delimiter = names.len() > 1 && names.last().is_some_and(|n| n.is_empty());
-    if trailing_delimiter {
-        names.pop();
-    }
+    let Header {
+        delim,
+        names,
+        trailing_delimiter,
+        time_scale,
+        mut channels,
+    } = parse_header(&header_text, header_line, path)?;
     let ncols = names.len();
-
-    // Columns: names, units, time column.
-    let mut time_scale = None;
-    let mut channels = Vec::with_capacity(ncols);
-    for (i, header) in names.iter().enumerate() {
-        let at = || Location::cell(header_line, i + 1, header);
-        let (bare, unit) = split_unit(header);
-        if bare.is_empty() {
-            return Err(err(at(), Problem::EmptyColumnName));
-        }
-        if let Some(scale) = time_column_scale(&bare, unit.as_deref()) {
-            if i != 0 {
-                return Err(err(at(), Problem::MisplacedTimeColumn));
-            }
-            time_scale =
-                Some(scale.map_err(|unit| err(at(), Problem::UnsupportedTimeUnit { unit }))?);
-            continue;
-        }
-        channels.push(Channel {
-            name: bare,
-            unit,
-            node: None,
-            direction: None,
-            id_line: None,
-            values: Vec::new(),
-            lines: None,
-        });
-    }
-    if channels.is_empty() {
-        return Err(err(Location::line(header_line), Problem::NoChannels));
-    }
     let first_channel_col = usize::from(time_scale.is_some());
 
     // Data rows.
@@ -136,67 +93,18 @@ pub(super) fn parse_csv_oracle(
             }
         }
     }
-    let Some(first_data_line) = first_data_line else {
-        return Err(err(Location::line(header_line), Problem::HeaderOnly));
-    };
-    let nrows = channels[0].values.len();
-    // Data rows are contiguous (a blank line inside them is refused above).
-    for c in &mut channels {
-        c.lines = Some(SampleLines::Rows {
-            first_line: first_data_line,
-        });
-    }
-
-    // Sampling.
-    let (start_s, dt_s) = match time_scale {
-        Some(scale) => {
-            if scale != 1.0 {
-                time.iter_mut().for_each(|t| *t *= scale);
-            }
-            let time_name = names[0].as_str();
-            let row_at = |i: usize| Location::cell(first_data_line + i, 1, time_name);
-            if nrows == 1 {
-                match opts.fs_hz {
-                    Some(fs) => (time[0], 1.0 / fs),
-                    None => return Err(err(row_at(0), Problem::SingleSample)),
-                }
-            } else {
-                let dt = timeaxis::check_uniform(&time, &time_model, scale)
-                    .map_err(|e| axis_error(path, e, row_at))?;
-                if let Some(fs) = opts.fs_hz {
-                    // The interval from the end points is uncertain by the
-                    // printing error of both; allow that, at least 1e-6.
-                    let q = time_model.half_unit(time[0], scale)
-                        + time_model.half_unit(time[nrows - 1], scale);
-                    let tol = (q / (nrows - 1) as f64).max(1e-6 * dt);
-                    if (1.0 / fs - dt).abs() > tol {
-                        return Err(err(
-                            Location::cell(first_data_line, 1, time_name),
-                            Problem::FsMismatch {
-                                fs_hz: fs,
-                                file_dt_s: dt,
-                            },
-                        ));
-                    }
-                }
-                (time[0], dt)
-            }
-        }
-        None => match opts.fs_hz {
-            Some(fs) => (0.0, 1.0 / fs),
-            None => return Err(err(Location::line(header_line), Problem::NoTimeColumnNoFs)),
+    finish(
+        path,
+        opts,
+        header_line,
+        &names,
+        delim,
+        time_scale,
+        Columns {
+            time,
+            time_model,
+            channels,
+            first_data_line,
         },
-    };
-
-    Ok(RecordFile {
-        path: path.to_path_buf(),
-        format: Format::Csv {
-            delimiter: delim as u8,
-        },
-        dt_s,
-        // -0.0 (a time column starting at "-0") becomes +0.0: times are
-        // computed as start + i*dt, which gives +0.0 at i = 0 anyway.
-        start_s: start_s + 0.0,
-        channels,
-    })
+    )
 }
