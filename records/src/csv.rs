@@ -474,14 +474,19 @@ struct Header {
     channels: Vec<Channel>,
 }
 
-/// Reads the header row `header_text` (line `header_line` of `path`): delimiter, names,
-/// units and the time column.
-fn parse_header(header_text: &str, header_line: usize, path: &Path) -> Result<Header, RecordError> {
-    let err = |at: Location, problem: Problem| parse_error(path, at, problem);
+/// Delimiter and column names of the header row `header_text` (line `header_line` of
+/// `path`), and whether every line ends with a delimiter: spreadsheets often do, and an
+/// empty last header cell is then dropped (as is the empty last cell of each row).
+pub(crate) fn header_names(
+    header_text: &str,
+    header_line: usize,
+    path: &Path,
+) -> Result<(char, Vec<String>, bool), RecordError> {
     let delim = detect_delimiter(header_text);
     let mut names: Vec<String> = split_line(header_text, delim)
         .map_err(|col| {
-            err(
+            parse_error(
+                path,
                 Location {
                     line: Some(header_line),
                     column: Some(col),
@@ -493,12 +498,18 @@ fn parse_header(header_text: &str, header_line: usize, path: &Path) -> Result<He
         .into_iter()
         .map(|c| c.into_owned())
         .collect();
-    // Spreadsheets often end every line with a delimiter: an empty last
-    // header cell is then dropped, and so is an empty last cell of a row.
     let trailing_delimiter = names.len() > 1 && names.last().is_some_and(|n| n.is_empty());
     if trailing_delimiter {
         names.pop();
     }
+    Ok((delim, names, trailing_delimiter))
+}
+
+/// Reads the header row `header_text` (line `header_line` of `path`): delimiter, names,
+/// units and the time column.
+fn parse_header(header_text: &str, header_line: usize, path: &Path) -> Result<Header, RecordError> {
+    let err = |at: Location, problem: Problem| parse_error(path, at, problem);
+    let (delim, names, trailing_delimiter) = header_names(header_text, header_line, path)?;
     let ncols = names.len();
 
     // Columns: names, units, time column.

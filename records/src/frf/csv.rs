@@ -7,7 +7,7 @@ use ident::FrfQuantity;
 use ident::linalg::C64;
 
 use super::{FrfFile, FrfFormat, FrfPair, FrfPoint, FrfReadOptions};
-use crate::csv::{cell_value, detect_delimiter, row_cells, split_line, split_unit};
+use crate::csv::{cell_value, detect_delimiter, header_names, row_cells, split_line, split_unit};
 use crate::error::{Location, Problem, RecordError};
 use crate::numfmt::{self, NumError};
 use crate::spec::{direction_label, parse_direction};
@@ -413,25 +413,7 @@ fn parse_headed(
     let err = |at: Location, problem: Problem| parse_error(path, at, problem);
     let (header_line, header_bytes) = lines.lines[first];
     let header_text = String::from_utf8_lossy(header_bytes);
-    let delim = detect_delimiter(&header_text);
-    let mut names: Vec<String> = split_line(&header_text, delim)
-        .map_err(|col| {
-            err(
-                Location {
-                    line: Some(header_line),
-                    column: Some(col),
-                    ..Location::default()
-                },
-                Problem::UnterminatedQuote,
-            )
-        })?
-        .into_iter()
-        .map(|c| c.into_owned())
-        .collect();
-    let trailing_delimiter = names.len() > 1 && names.last().is_some_and(|n| n.is_empty());
-    if trailing_delimiter {
-        names.pop();
-    }
+    let (delim, names, trailing_delimiter) = header_names(&header_text, header_line, path)?;
     let ncols = names.len();
     let header_err = |col: usize, reason: String| {
         err(
