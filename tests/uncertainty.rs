@@ -8,16 +8,19 @@ use std::time::Instant;
 
 use common::*;
 
+/// `frameid simulate` of paper case 1 into `dir` with `extra` arguments; the hit files.
+fn paper_case1_hits(dir: &std::path::Path, extra: &[&str]) -> Vec<String> {
+    let scenario = repo("scenarios/paper-case1.toml");
+    let mut args = vec!["simulate", s(&scenario), "--out", s(dir)];
+    args.extend_from_slice(extra);
+    ok(&args);
+    hit_files(dir, "csv")
+}
+
 #[test]
 fn identify_reports_error_bars_in_json_and_tables() {
     let dir = tempfile::tempdir().unwrap();
-    ok(&[
-        "simulate",
-        s(&repo("scenarios/paper-case1.toml")),
-        "--out",
-        s(dir.path()),
-    ]);
-    let files = hit_files(dir.path(), "csv");
+    let files = paper_case1_hits(dir.path(), &[]);
     let mut args: Vec<&str> = vec!["identify", "--json"];
     args.extend(files.iter().map(String::as_str));
     let t = Instant::now();
@@ -94,15 +97,7 @@ fn more_hits_than_groups_give_grouped_error_bars() {
     // the error bars keep the size of the delete-one jackknife's (K11 about
     // 0.3 N/m for 10 hits, sqrt(10/25) of that here).
     let dir = tempfile::tempdir().unwrap();
-    ok(&[
-        "simulate",
-        s(&repo("scenarios/paper-case1.toml")),
-        "--out",
-        s(dir.path()),
-        "--hits",
-        "25",
-    ]);
-    let files = hit_files(dir.path(), "csv");
+    let files = paper_case1_hits(dir.path(), &["--hits", "25"]);
     let mut args: Vec<&str> = vec!["identify", "--json"];
     args.extend(files.iter().map(String::as_str));
     let json: serde_json::Value = serde_json::from_str(&ok(&args)).unwrap();
@@ -113,6 +108,7 @@ fn more_hits_than_groups_give_grouped_error_bars() {
         (Some(25), Some(20))
     );
     assert_eq!(u["resamples"], 20);
+    // The 10-hit test's range (0.05..2.0) times sqrt(10/25).
     let k11 = u["stiffness"]["std"][0][0].as_f64().unwrap();
     assert!((0.03..1.3).contains(&k11), "{k11}");
     let human = ok(&args[..1]
