@@ -525,6 +525,23 @@ impl Problem {
         )
         .map_err(|_| RefineError::SingularModel)
     }
+
+    /// The expected Fisher information of `model` (built with derivatives) under `noise`:
+    /// the Gauss-Newton matrix without the weights' derivative.
+    fn expected_fisher(&self, model: &Model, noise: &Noise) -> Result<DMatrix<f64>, RefineError> {
+        let ev = likelihood::evaluate(
+            model,
+            &self.params,
+            &self.spectra,
+            noise,
+            Want::Jacobian {
+                weight_derivative: false,
+            },
+            false,
+        )
+        .map_err(|_| RefineError::SingularModel)?;
+        Ok(ev.fisher.expect("Jacobian requested"))
+    }
 }
 
 impl Refiner {
@@ -829,19 +846,7 @@ impl Refiner {
         let fisher = match outcome.point.extra.expected_fisher.take() {
             Some(fisher) => fisher,
             None if !noise.errors_in_variables() => outcome.point.fisher.clone(),
-            None => likelihood::evaluate(
-                &model,
-                &problem.params,
-                &problem.spectra,
-                &noise,
-                Want::Jacobian {
-                    weight_derivative: false,
-                },
-                false,
-            )
-            .map_err(|_| RefineError::SingularModel)?
-            .fisher
-            .expect("Jacobian requested"),
+            None => problem.expected_fisher(&model, &noise)?,
         };
         let uncertainty = uncertainty::uncertainty(&problem.params, &model, fisher)?;
         let initial_cost = problem.evaluate(&theta0, &noise, Want::Cost, false)?.cost;
@@ -951,22 +956,8 @@ impl Refiner {
             inputs: noise.inputs.clone(),
         };
         let model = problem.model(&theta, true)?;
-        let ev = likelihood::evaluate(
-            &model,
-            &problem.params,
-            &problem.spectra,
-            &noise,
-            Want::Jacobian {
-                weight_derivative: false,
-            },
-            false,
-        )
-        .map_err(|_| RefineError::SingularModel)?;
-        uncertainty::uncertainty(
-            &problem.params,
-            &model,
-            ev.fisher.expect("Jacobian requested"),
-        )
+        let fisher = problem.expected_fisher(&model, &noise)?;
+        uncertainty::uncertainty(&problem.params, &model, fisher)
     }
 }
 
