@@ -20,6 +20,16 @@ fn truth(t: [[f64; 2]; 2]) -> Vec<Vec<f64>> {
     t.iter().map(|r| r.to_vec()).collect()
 }
 
+/// The FRF peaks the automatic decimation found (`decimation.peaks_hz`).
+fn peaks_hz(decimation: &serde_json::Value) -> Vec<f64> {
+    decimation["peaks_hz"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.as_f64().unwrap())
+        .collect()
+}
+
 /// Relative errors of the identified (or refined, `key` = `refined`) M
 /// and K against paper case 1.
 fn errors(v: &serde_json::Value) -> (f64, f64) {
@@ -154,12 +164,7 @@ fn long_hammer_records_are_searched_in_one_block() {
     let v = identify_no_uncertainty(&files, &[]);
     let d = &v["decimation"];
     assert_eq!(d["factor"], 11, "{d:#}");
-    let peaks: Vec<f64> = d["peaks_hz"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|p| p.as_f64().unwrap())
-        .collect();
+    let peaks = peaks_hz(d);
     // Within the line spacing of the 128-s block (1/128 Hz) of the modes.
     assert_eq!(peaks.len(), 2, "{d:#}");
     assert!(
@@ -181,12 +186,7 @@ fn records_sampled_far_above_the_band_are_decimated() {
     let d = &v["decimation"];
     // The FRF peaks: the modes at 2.725 and 9.154 Hz, to within the line
     // spacing of a 32 s record (1/32 Hz).
-    let peaks: Vec<f64> = d["peaks_hz"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|p| p.as_f64().unwrap())
-        .collect();
+    let peaks = peaks_hz(d);
     assert_eq!(peaks.len(), 2, "{d:#}");
     assert!((peaks[0] - 2.725).abs() < 1.0 / 32.0 && (peaks[1] - 9.154).abs() < 1.0 / 32.0);
     // 9.156 Hz below 0.4 of the new Nyquist frequency: 512 / (5 x 9.156) =
