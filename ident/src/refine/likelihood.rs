@@ -24,6 +24,7 @@ use crate::linalg::{C64, dot};
 use crate::mkr::MatrixKind;
 use crate::modal::Intersample;
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
+use rayon::prelude::*;
 
 const ZERO: C64 = C64::new(0.0, 0.0);
 
@@ -335,7 +336,7 @@ fn row(bi: usize, m: usize, i: usize) -> usize {
 const LANES: usize = 2;
 
 /// Bins whose Jacobian rows are reduced together (bounds the memory of long records).
-const BLOCK_BINS: usize = 64;
+pub(crate) const BLOCK_BINS: usize = 64;
 
 /// Largest per-bin model cache of a group, bytes. A group with more bins
 /// (a long record: 10^6 samples give 375 001 bins, 228 MB of cache for a
@@ -369,6 +370,17 @@ struct Cache {
     l: Vec<C64>,
 }
 
+/// The part of a [`Cache`] that holds one block's bins (empty slices for the quantities a
+/// cache that is not `full` does not keep).
+struct CacheBlock<'a> {
+    res: &'a mut [C64],
+    cr: &'a mut [C64],
+    rb: &'a mut [C64],
+    qi: &'a mut [C64],
+    g: &'a mut [C64],
+    l: &'a mut [C64],
+}
+
 impl Cache {
     fn new(work: &BinWork, nb: usize) -> Self {
         let per_bin = work.res.len()
@@ -378,27 +390,63 @@ impl Cache {
             + work.g.len()
             + work.l.len();
         let full = nb.saturating_mul(per_bin * std::mem::size_of::<C64>()) <= cache_bytes();
-        let of = |len: usize| Vec::with_capacity(if full { nb * len } else { 0 });
+        let of = |len: usize| vec![ZERO; if full { nb * len } else { 0 }];
         Self {
             full,
             res: of(work.res.len()),
             cr: of(work.cr.len()),
             rb: of(work.rb.len()),
             qi: of(work.qi.len()),
-            g: Vec::with_capacity(nb * work.g.len()),
-            l: Vec::with_capacity(nb * work.l.len()),
+            g: vec![ZERO; nb * work.g.len()],
+            l: vec![ZERO; nb * work.l.len()],
         }
     }
 
-    fn push(&mut self, work: &BinWork) {
-        if self.full {
-            self.res.extend_from_slice(&work.res);
-            self.cr.extend_from_slice(&work.cr);
-            self.rb.extend_from_slice(&work.rb);
-            self.qi.extend_from_slice(&work.qi);
+    /// One mutable view per block of [`BLOCK_BINS`] bins (of `nb` bins in all).
+    fn blocks(&mut self, nb: usize) -> Vec<CacheBlock<'_>> {
+        fn split(v: &mut [C64], nb: usize) -> Vec<&mut [C64]> {
+            let nblocks = nb.div_ceil(BLOCK_BINS);
+            if v.is_empty() {
+                (0..nblocks).map(|_| Default::default()).collect()
+            } else {
+                let len = v.len() / nb;
+                v.chunks_mut(BLOCK_BINS * len).collect()
+            }
         }
-        self.g.extend_from_slice(&work.g);
-        self.l.extend_from_slice(&work.l);
+        let nblocks = nb.div_ceil(BLOCK_BINS);
+        let mut res = split(&mut self.res, nb).into_iter();
+        let mut cr = split(&mut self.cr, nb).into_iter();
+        let mut rb = split(&mut self.rb, nb).into_iter();
+        let mut qi = split(&mut self.qi, nb).into_iter();
+        let mut g = split(&mut self.g, nb).into_iter();
+        let mut l = split(&mut self.l, nb).into_iter();
+        (0..nblocks)
+            .map(|_| CacheBlock {
+                res: res.next().expect("one chunk per block"),
+                cr: cr.next().expect("one chunk per block"),
+                rb: rb.next().expect("one chunk per block"),
+                qi: qi.next().expect("one chunk per block"),
+                g: g.next().expect("one chunk per block"),
+                l: l.next().expect("one chunk per block"),
+            })
+            .collect()
+    }
+}
+
+impl CacheBlock<'_> {
+    /// Stores the quantities of `work` for the block's bin `lb`.
+    fn store(&mut self, work: &BinWork, lb: usize) {
+        let put = |dst: &mut [C64], src: &[C64]| {
+            if !dst.is_empty() {
+                dst[lb * src.len()..(lb + 1) * src.len()].copy_from_slice(src);
+            }
+        };
+        put(self.res, &work.res);
+        put(self.cr, &work.cr);
+        put(self.rb, &work.rb);
+        put(self.qi, &work.qi);
+        put(self.g, &work.g);
+        put(self.l, &work.l);
     }
 }
 
@@ -419,7 +467,7 @@ pub(crate) fn evaluate(
     let (m, s) = (n, 2 * n);
     let np = params.len();
     let eiv = noise.errors_in_variables();
-    let mut work = BinWork::new(model);
+    let work = BinWork::new(model);
     let hits = spectra.hits();
     let mut xi = vec![DVector::zeros(s); hits];
     let mut cost = 0.0;
@@ -451,8 +499,6 @@ pub(crate) fn evaluate(
         };
         hits
     ];
-    let mut e = vec![ZERO; m];
-    let mut tx = vec![ZERO; m * s];
     // Upper triangle of `sum_h J_h^T J_h` over all groups; the nuisance terms are
     // subtracted per hit and the lower triangle mirrored at the end.
     let mut jtj = vec![0.0; np * np];
@@ -467,60 +513,108 @@ pub(crate) fn evaluate(
         // next: real and imaginary parts, column `q`), and one `X^T X`. `X^T v` and
         // `v - X sol` are dot products and axpys over whole columns.
         let mut xreal = vec![0.0; rows * s];
-        let mut xb = vec![ZERO; m * s];
         // Whitened, scaled residuals, `rows` values per hit (slot).
         let mut rs = vec![0.0; hits_here * rows];
         let mut cache = Cache::new(&work, nb);
-        // Upper triangle of `X^T X`, column-major.
-        let mut xtx_upper = vec![0.0; s * s];
+        let nblocks = nb.div_ceil(BLOCK_BINS);
+        // Rows of one block in a column of `X` or a hit's residual.
+        let block_rows = 2 * m * BLOCK_BINS;
+        let mut x_blocks: Vec<Vec<&mut [f64]>> = (0..nblocks).map(|_| Vec::new()).collect();
+        for col in xreal.chunks_mut(rows) {
+            for (blk, part) in x_blocks.iter_mut().zip(col.chunks_mut(block_rows)) {
+                blk.push(part);
+            }
+        }
+        let mut r_blocks: Vec<Vec<&mut [f64]>> = (0..nblocks).map(|_| Vec::new()).collect();
+        for hit in rs.chunks_mut(rows) {
+            for (blk, part) in r_blocks.iter_mut().zip(hit.chunks_mut(block_rows)) {
+                blk.push(part);
+            }
+        }
 
-        // Pass 1: residual without transient, transient regressors.
-        for (bi, bin) in group.bins.iter().enumerate() {
-            work.compute(model, bin, noise)?;
-            cache.push(&work);
-            let sc = sc_of(bin);
-            for (v, c) in tx.iter_mut().zip(&work.cr) {
-                *v = c * bin.z;
-            }
-            dense::forward_solve(&work.l, m, &mut tx, s);
-            for (x, t) in xb.iter_mut().zip(&tx) {
-                *x = t * sc;
-            }
-            for q in 0..s {
-                let col = &mut xreal[q * rows + 2 * bi * m..q * rows + 2 * (bi + 1) * m];
-                for (pair, x) in col.chunks_exact_mut(2).zip(&xb[q * m..(q + 1) * m]) {
-                    pair[0] = x.re;
-                    pair[1] = x.im;
+        // Pass 1: residual without transient, transient regressors. Blocks of bins run in
+        // parallel, each writing its own rows; `X^T X` (upper triangle, column-major) is
+        // summed per block and the blocks' sums are added in block order, so the result
+        // does not depend on the number of threads.
+        let pass1 = |(b0, mut cache, mut xcols, mut rcols): (
+            usize,
+            CacheBlock<'_>,
+            Vec<&mut [f64]>,
+            Vec<&mut [f64]>,
+        )|
+         -> Result<Vec<f64>, Singular> {
+            let mut work = BinWork::new(model);
+            let mut tx = vec![ZERO; m * s];
+            let mut xb = vec![ZERO; m * s];
+            let mut e = vec![ZERO; m];
+            let mut xtx_upper = vec![0.0; s * s];
+            let end = (b0 + BLOCK_BINS).min(nb);
+            for (lb, bin) in group.bins[b0..end].iter().enumerate() {
+                let bi = b0 + lb;
+                work.compute(model, bin, noise)?;
+                cache.store(&work, lb);
+                let sc = sc_of(bin);
+                for (v, c) in tx.iter_mut().zip(&work.cr) {
+                    *v = c * bin.z;
                 }
-            }
-            for q2 in 0..s {
-                let b = &xb[q2 * m..(q2 + 1) * m];
-                for q1 in 0..=q2 {
-                    let a = &xb[q1 * m..(q1 + 1) * m];
-                    let mut acc = 0.0;
-                    for (a, b) in a.iter().zip(b) {
-                        acc += a.re * b.re + a.im * b.im;
+                dense::forward_solve(&work.l, m, &mut tx, s);
+                for (x, t) in xb.iter_mut().zip(&tx) {
+                    *x = t * sc;
+                }
+                for (q, col) in xcols.iter_mut().enumerate() {
+                    let col = &mut col[2 * lb * m..2 * (lb + 1) * m];
+                    for (pair, x) in col.chunks_exact_mut(2).zip(&xb[q * m..(q + 1) * m]) {
+                        pair[0] = x.re;
+                        pair[1] = x.im;
                     }
-                    xtx_upper[q1 + q2 * s] += acc;
+                }
+                for q2 in 0..s {
+                    let b = &xb[q2 * m..(q2 + 1) * m];
+                    for q1 in 0..=q2 {
+                        let a = &xb[q1 * m..(q1 + 1) * m];
+                        let mut acc = 0.0;
+                        for (a, b) in a.iter().zip(b) {
+                            acc += a.re * b.re + a.im * b.im;
+                        }
+                        xtx_upper[q1 + q2 * s] += acc;
+                    }
+                }
+                let g = &work.g;
+                for (rv, &h) in rcols.iter_mut().zip(&group.hits) {
+                    let y = &spectra.y[h].as_slice()[bi * m..(bi + 1) * m];
+                    let u = &spectra.u[h].as_slice()[bi * r..(bi + 1) * r];
+                    for i in 0..m {
+                        let mut v = y[i];
+                        for (l, &ul) in u.iter().enumerate() {
+                            v -= g[i + l * m] * ul;
+                        }
+                        e[i] = v;
+                    }
+                    dense::forward_solve(&work.l, m, &mut e, 1);
+                    let rv = &mut rv[2 * lb * m..2 * (lb + 1) * m];
+                    for (pair, ei) in rv.chunks_exact_mut(2).zip(&e) {
+                        pair[0] = sc * ei.re;
+                        pair[1] = sc * ei.im;
+                    }
                 }
             }
-            let g = &work.g;
-            for (slot, &h) in group.hits.iter().enumerate() {
-                let y = &spectra.y[h].as_slice()[bi * m..(bi + 1) * m];
-                let u = &spectra.u[h].as_slice()[bi * r..(bi + 1) * r];
-                for i in 0..m {
-                    let mut v = y[i];
-                    for (l, &ul) in u.iter().enumerate() {
-                        v -= g[i + l * m] * ul;
-                    }
-                    e[i] = v;
-                }
-                dense::forward_solve(&work.l, m, &mut e, 1);
-                let rv = &mut rs[slot * rows + 2 * bi * m..slot * rows + 2 * (bi + 1) * m];
-                for (pair, ei) in rv.chunks_exact_mut(2).zip(&e) {
-                    pair[0] = sc * ei.re;
-                    pair[1] = sc * ei.im;
-                }
+            Ok(xtx_upper)
+        };
+        let sums: Vec<Result<Vec<f64>, Singular>> = cache
+            .blocks(nb)
+            .into_iter()
+            .zip(x_blocks)
+            .zip(r_blocks)
+            .enumerate()
+            .map(|(b, ((c, x), rr))| (b * BLOCK_BINS, c, x, rr))
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(pass1)
+            .collect();
+        let mut xtx_upper = vec![0.0; s * s];
+        for sum in sums {
+            for (a, b) in xtx_upper.iter_mut().zip(&sum?) {
+                *a += b;
             }
         }
         let xtx = DMatrix::from_fn(s, s, |a, b| {
@@ -644,25 +738,9 @@ pub(crate) fn evaluate(
         };
         let mut jtx = vec![0.0; hits_here * np * s];
         let mut jtr = vec![0.0; hits_here * np];
-        #[cfg(test)]
-        let mut jts: Vec<DMatrix<f64>> = group
-            .hits
-            .iter()
-            .map(|_| DMatrix::zeros(rows, np))
-            .collect();
-        // Per bin, `[(a * cols + b) * npp + p]`: `dC + C (z I - A_d)^-1 dA_d` (m x s, real and
-        // imaginary parts), `dG` (m x r) and, band-limited, `E_p G` (n x r).
-        let mut ma_re = vec![0.0; m * s * npp];
-        let mut ma_im = vec![0.0; m * s * npp];
-        let mut dg = vec![ZERO; m * r * npp];
-        let mut eg = vec![ZERO; n * r * npp];
-        let mut factor = vec![ZERO; npp];
-        let mut bw = vec![ZERO; m * r];
-        let mut aw = vec![ZERO; m * r];
         // Complex terms of row `i`: the `r` inputs and, with the weight derivative, the
         // whitened residuals `0..=i`; real terms: the `s` transient components.
         let nc = r + if weight_derivative { m } else { 0 };
-        let mut coef = vec![ZERO; nc];
         // Per term, the real parts of the parameters' weights followed by the imaginary
         // parts (`2 npp` values).
         let np2 = 2 * npp;
@@ -673,303 +751,420 @@ pub(crate) fn evaluate(
         let ww_at = |i: usize, t: usize, p: usize| {
             ((i * chunks + p / LANES) * nc + t) * 2 * LANES + p % LANES
         };
-        let mut ww = vec![0.0; m * nc * np2];
-        let mut sw = vec![0.0; m * s * np2];
         // Jacobian rows of a block of bins, column-major (one column per parameter, rows
         // ordered by hit, bin, output, real and imaginary part), reduced by dot products
-        // over whole columns when the block is full.
+        // over whole columns at the end of the block.
         let cap = hits_here * 2 * m * BLOCK_BINS.min(nb);
-        let mut jblk = vec![0.0; np * cap];
-        let mut jri = vec![0.0; np2];
-        let mut jblk2 = vec![0.0; if second { np * cap } else { 0 }];
-        let mut jri2 = vec![0.0; np2];
         let mut jtx2 = vec![0.0; if second { hits_here * np * s } else { 0 }];
-        for (bi, bin) in group.bins.iter().enumerate() {
-            let (res, cr, rb, qi) = if cache.full {
-                (
-                    slice(&cache.res, bi, s * s),
-                    slice(&cache.cr, bi, m * s),
-                    slice(&cache.rb, bi, s * r),
-                    slice(&cache.qi, bi, n * n),
-                )
-            } else {
-                // Succeeds: it did for this bin in pass 1.
-                work.compute(model, bin, noise)?;
-                (&work.res[..], &work.cr[..], &work.rb[..], &work.qi[..])
+        /// Working memory of the Jacobian pass over one block (every value read is
+        /// written first in the same block).
+        struct Scratch {
+            work: BinWork,
+            ma_re: Vec<f64>,
+            ma_im: Vec<f64>,
+            dg: Vec<C64>,
+            eg: Vec<C64>,
+            factor: Vec<C64>,
+            bw: Vec<C64>,
+            aw: Vec<C64>,
+            coef: Vec<C64>,
+            ww: Vec<f64>,
+            sw: Vec<f64>,
+            jblk: Vec<f64>,
+            jri: Vec<f64>,
+            jblk2: Vec<f64>,
+            jri2: Vec<f64>,
+        }
+        // Per bin, `[(a * cols + b) * npp + p]`: `dC + C (z I - A_d)^-1 dA_d` (m x s, real and
+        // imaginary parts), `dG` (m x r) and, band-limited, `E_p G` (n x r).
+        let scratch = || Scratch {
+            work: BinWork::new(model),
+            ma_re: vec![0.0; m * s * npp],
+            ma_im: vec![0.0; m * s * npp],
+            dg: vec![ZERO; m * r * npp],
+            eg: vec![ZERO; n * r * npp],
+            factor: vec![ZERO; npp],
+            bw: vec![ZERO; m * r],
+            aw: vec![ZERO; m * r],
+            coef: vec![ZERO; nc],
+            ww: vec![0.0; m * nc * np2],
+            sw: vec![0.0; m * s * np2],
+            jblk: vec![0.0; np * cap],
+            jri: vec![0.0; np2],
+            jblk2: vec![0.0; if second { np * cap } else { 0 }],
+            jri2: vec![0.0; np2],
+        };
+        /// One block's `J^T J` (upper triangle, row-major), and per hit `J^T X` and
+        /// `J^T r` (and the same without the weight derivative).
+        struct BlockSums {
+            jtj: Vec<f64>,
+            jtx: Vec<f64>,
+            jtr: Vec<f64>,
+            jtj2: Vec<f64>,
+            jtx2: Vec<f64>,
+            /// Jacobian rows: hit slot, row, real parts then imaginary parts.
+            #[cfg(test)]
+            rows: Vec<(usize, usize, Vec<f64>)>,
+        }
+        // Pass 2 over one block of bins starting at `b0`; blocks run in parallel and their
+        // sums are added in block order (the same numbers for any thread count).
+        let pass2 = |scratch: &mut Scratch, b0: usize| -> Result<BlockSums, Singular> {
+            let Scratch {
+                work,
+                ma_re,
+                ma_im,
+                dg,
+                eg,
+                factor,
+                bw,
+                aw,
+                coef,
+                ww,
+                sw,
+                jblk,
+                jri,
+                jblk2,
+                jri2,
+            } = scratch;
+            let nbb = BLOCK_BINS.min(nb - b0);
+            let seg = 2 * m * nbb;
+            let mut sums = BlockSums {
+                jtj: vec![0.0; np * np],
+                jtx: vec![0.0; hits_here * np * s],
+                jtr: vec![0.0; hits_here * np],
+                jtj2: vec![0.0; if second { np * np } else { 0 }],
+                jtx2: vec![0.0; if second { hits_here * np * s } else { 0 }],
+                #[cfg(test)]
+                rows: Vec::new(),
             };
-            let g = slice(&cache.g, bi, m * r);
-            let l = slice(&cache.l, bi, m * m);
-            let sc = sc_of(bin);
-            // dT/dtheta_p (z I - A_d)^-1 with T = C (z I - A_d)^-1 z: `dC + C R dA_d`.
-            for i in 0..m {
-                for q in 0..s {
-                    for c0 in (0..npp).step_by(LANES) {
-                        let o = (i * s + q) * npp + c0;
-                        let mut are = [0.0; LANES];
-                        are.copy_from_slice(&dc[o..o + LANES]);
-                        let mut aim = [0.0; LANES];
-                        for t in 0..s {
-                            let c = cr[i + t * m];
-                            let d = &dad[(t * s + q) * npp + c0..(t * s + q) * npp + c0 + LANES];
-                            for k in 0..LANES {
-                                are[k] += c.re * d[k];
-                                aim[k] += c.im * d[k];
-                            }
-                        }
-                        ma_re[o..o + LANES].copy_from_slice(&are);
-                        ma_im[o..o + LANES].copy_from_slice(&aim);
-                    }
-                }
-            }
-            match model.intersample {
-                Intersample::Zoh => {
-                    // dG = dD + (dC + C R dA_d) R B_d + C R dB_d.
-                    for i in 0..m {
-                        for li in 0..r {
-                            let o = (i * r + li) * npp;
-                            let out = &mut dg[o..o + npp];
-                            for (v, &d) in out.iter_mut().zip(&dd[o..o + npp]) {
-                                *v = C64::new(d, 0.0);
-                            }
-                            for q in 0..s {
-                                let b = rb[q + li * s];
-                                let c = cr[i + q * m];
-                                let a = (i * s + q) * npp;
-                                let (are, aim) = (&ma_re[a..a + npp], &ma_im[a..a + npp]);
-                                let e = &dbd[(q * r + li) * npp..(q * r + li + 1) * npp];
-                                for p in 0..npp {
-                                    out[p] += C64::new(are[p], aim[p]) * b + c * e[p];
-                                }
-                            }
-                        }
-                    }
-                }
-                Intersample::Bandlimited => {
-                    // dG = -s^2 Q^-1 dQ Q^-1 B2 = -f Q^-1 E G, dQ = f E.
-                    let w = bin.omega;
-                    for (f, p) in factor.iter_mut().zip(params) {
-                        *f = -match p.matrix {
-                            MatrixKind::Mass => C64::new(-w * w, 0.0),
-                            MatrixKind::Damping => C64::new(0.0, w),
-                            MatrixKind::Stiffness => C64::new(1.0, 0.0),
-                        };
-                    }
-                    for j in 0..n {
-                        for li in 0..r {
-                            let out = &mut eg[(j * r + li) * npp..(j * r + li + 1) * npp];
-                            out.fill(ZERO);
-                            for k in 0..n {
-                                let gk = g[k + li * m];
-                                let e = &basis[(j * n + k) * npp..(j * n + k + 1) * npp];
-                                for p in 0..npp {
-                                    out[p] += gk * e[p];
-                                }
-                            }
-                        }
-                    }
-                    for i in 0..n {
-                        for li in 0..r {
-                            let o = (i * r + li) * npp;
-                            let out = &mut dg[o..o + npp];
-                            out.fill(ZERO);
-                            for j in 0..n {
-                                let qij = qi[i + j * n];
-                                let e = &eg[(j * r + li) * npp..(j * r + li + 1) * npp];
-                                for p in 0..npp {
-                                    out[p] += qij * e[p];
-                                }
-                            }
-                            for (v, f) in out.iter_mut().zip(&factor) {
-                                *v *= f;
-                            }
-                        }
-                    }
-                }
-            }
-            // Whitened once per bin, shared by the hits: forward substitution with `L`
-            // (real diagonal) on the output index.
-            for i in 0..m {
-                for k in 0..i {
-                    let lik = l[i + k * m];
+            for (lb, bin) in group.bins[b0..b0 + nbb].iter().enumerate() {
+                let bi = b0 + lb;
+                let (res, cr, rb, qi) = if cache.full {
+                    (
+                        slice(&cache.res, bi, s * s),
+                        slice(&cache.cr, bi, m * s),
+                        slice(&cache.rb, bi, s * r),
+                        slice(&cache.qi, bi, n * n),
+                    )
+                } else {
+                    // Succeeds: it did for this bin in pass 1.
+                    work.compute(model, bin, noise)?;
+                    (&work.res[..], &work.cr[..], &work.rb[..], &work.qi[..])
+                };
+                let g = slice(&cache.g, bi, m * r);
+                let l = slice(&cache.l, bi, m * m);
+                let sc = sc_of(bin);
+                // dT/dtheta_p (z I - A_d)^-1 with T = C (z I - A_d)^-1 z: `dC + C R dA_d`.
+                for i in 0..m {
                     for q in 0..s {
-                        let (oi, ok) = ((i * s + q) * npp, (k * s + q) * npp);
-                        for p in 0..npp {
-                            let (kr, ki) = (ma_re[ok + p], ma_im[ok + p]);
-                            ma_re[oi + p] -= lik.re * kr - lik.im * ki;
-                            ma_im[oi + p] -= lik.re * ki + lik.im * kr;
-                        }
-                    }
-                    for li in 0..r {
-                        let (oi, ok) = ((i * r + li) * npp, (k * r + li) * npp);
-                        for p in 0..npp {
-                            let v = dg[ok + p];
-                            dg[oi + p] -= lik * v;
-                        }
-                    }
-                }
-                let d = l[i + i * m].re;
-                for v in &mut ma_re[i * s * npp..(i + 1) * s * npp] {
-                    *v /= d;
-                }
-                for v in &mut ma_im[i * s * npp..(i + 1) * s * npp] {
-                    *v /= d;
-                }
-                for v in &mut dg[i * r * npp..(i + 1) * r * npp] {
-                    *v /= d;
-                }
-            }
-            // Transient terms: `-sc L^-1 (dC + C R dA_d) R z`, the derivative of the
-            // whitened transient regressor, whose coefficients are the real `xi`.
-            // Laid out for `row_kernel`: per output and chunk of parameters, the `s` terms.
-            for i in 0..m {
-                for q2 in 0..s {
-                    for c in 0..chunks {
-                        let mut outr = [0.0; LANES];
-                        let mut outi = [0.0; LANES];
-                        for q in 0..s {
-                            let rzq = res[q + q2 * s] * bin.z;
-                            let a = (i * s + q) * npp + c * LANES;
-                            let (are, aim) = (&ma_re[a..a + LANES], &ma_im[a..a + LANES]);
-                            for k in 0..LANES {
-                                outr[k] += are[k] * rzq.re - aim[k] * rzq.im;
-                                outi[k] += are[k] * rzq.im + aim[k] * rzq.re;
+                        for c0 in (0..npp).step_by(LANES) {
+                            let o = (i * s + q) * npp + c0;
+                            let mut are = [0.0; LANES];
+                            are.copy_from_slice(&dc[o..o + LANES]);
+                            let mut aim = [0.0; LANES];
+                            for t in 0..s {
+                                let c = cr[i + t * m];
+                                let d =
+                                    &dad[(t * s + q) * npp + c0..(t * s + q) * npp + c0 + LANES];
+                                for k in 0..LANES {
+                                    are[k] += c.re * d[k];
+                                    aim[k] += c.im * d[k];
+                                }
                             }
-                        }
-                        let o = ((i * chunks + c) * s + q2) * 2 * LANES;
-                        let dst = &mut sw[o..o + 2 * LANES];
-                        for k in 0..LANES {
-                            dst[k] = outr[k] * -sc;
-                            dst[LANES + k] = outi[k] * -sc;
+                            ma_re[o..o + LANES].copy_from_slice(&are);
+                            ma_im[o..o + LANES].copy_from_slice(&aim);
                         }
                     }
                 }
-            }
-            // Complex terms: the input DFTs (`dG`) and, with the weight derivative, the
-            // whitened residuals (`Phi`): L^-1 dC L^-H = a b^H + b a^H with
-            // b = L^-1 G Su^1/2, a = L^-1 dG Su^1/2; d(L^-1) e = -Phi(L^-1 dC L^-H) L^-1 e
-            // (Cholesky derivative).
-            for i in 0..m {
-                for t in 0..r {
-                    let o = (i * r + t) * npp;
-                    for p in 0..npp {
-                        let w = dg[o + p] * -sc;
-                        let at = ww_at(i, t, p);
-                        ww[at] = w.re;
-                        ww[at + LANES] = w.im;
-                    }
-                }
-            }
-            if weight_derivative {
-                for li in 0..r {
-                    for i in 0..m {
-                        bw[i + li * m] = g[i + li * m] * noise.inputs[li];
-                    }
-                }
-                dense::forward_solve(l, m, &mut bw, r);
-                for p in 0..np {
-                    for li in 0..r {
+                match model.intersample {
+                    Intersample::Zoh => {
+                        // dG = dD + (dC + C R dA_d) R B_d + C R dB_d.
                         for i in 0..m {
-                            aw[i + li * m] = dg[(i * r + li) * npp + p] * noise.inputs[li];
+                            for li in 0..r {
+                                let o = (i * r + li) * npp;
+                                let out = &mut dg[o..o + npp];
+                                for (v, &d) in out.iter_mut().zip(&dd[o..o + npp]) {
+                                    *v = C64::new(d, 0.0);
+                                }
+                                for q in 0..s {
+                                    let b = rb[q + li * s];
+                                    let c = cr[i + q * m];
+                                    let a = (i * s + q) * npp;
+                                    let (are, aim) = (&ma_re[a..a + npp], &ma_im[a..a + npp]);
+                                    let e = &dbd[(q * r + li) * npp..(q * r + li + 1) * npp];
+                                    for p in 0..npp {
+                                        out[p] += C64::new(are[p], aim[p]) * b + c * e[p];
+                                    }
+                                }
+                            }
                         }
                     }
-                    for j in 0..m {
-                        for i in j..m {
-                            let mut sij = ZERO;
+                    Intersample::Bandlimited => {
+                        // dG = -s^2 Q^-1 dQ Q^-1 B2 = -f Q^-1 E G, dQ = f E.
+                        let w = bin.omega;
+                        for (f, p) in factor.iter_mut().zip(params) {
+                            *f = -match p.matrix {
+                                MatrixKind::Mass => C64::new(-w * w, 0.0),
+                                MatrixKind::Damping => C64::new(0.0, w),
+                                MatrixKind::Stiffness => C64::new(1.0, 0.0),
+                            };
+                        }
+                        for j in 0..n {
                             for li in 0..r {
-                                sij += aw[i + li * m] * bw[j + li * m].conj()
-                                    + bw[i + li * m] * aw[j + li * m].conj();
+                                let out = &mut eg[(j * r + li) * npp..(j * r + li + 1) * npp];
+                                out.fill(ZERO);
+                                for k in 0..n {
+                                    let gk = g[k + li * m];
+                                    let e = &basis[(j * n + k) * npp..(j * n + k + 1) * npp];
+                                    for p in 0..npp {
+                                        out[p] += gk * e[p];
+                                    }
+                                }
                             }
-                            let w = if i == j { sij * 0.5 } else { sij } * -sc;
-                            let at = ww_at(i, r + j, p);
+                        }
+                        for i in 0..n {
+                            for li in 0..r {
+                                let o = (i * r + li) * npp;
+                                let out = &mut dg[o..o + npp];
+                                out.fill(ZERO);
+                                for j in 0..n {
+                                    let qij = qi[i + j * n];
+                                    let e = &eg[(j * r + li) * npp..(j * r + li + 1) * npp];
+                                    for p in 0..npp {
+                                        out[p] += qij * e[p];
+                                    }
+                                }
+                                for (v, f) in out.iter_mut().zip(factor.iter()) {
+                                    *v *= f;
+                                }
+                            }
+                        }
+                    }
+                }
+                // Whitened once per bin, shared by the hits: forward substitution with `L`
+                // (real diagonal) on the output index.
+                for i in 0..m {
+                    for k in 0..i {
+                        let lik = l[i + k * m];
+                        for q in 0..s {
+                            let (oi, ok) = ((i * s + q) * npp, (k * s + q) * npp);
+                            for p in 0..npp {
+                                let (kr, ki) = (ma_re[ok + p], ma_im[ok + p]);
+                                ma_re[oi + p] -= lik.re * kr - lik.im * ki;
+                                ma_im[oi + p] -= lik.re * ki + lik.im * kr;
+                            }
+                        }
+                        for li in 0..r {
+                            let (oi, ok) = ((i * r + li) * npp, (k * r + li) * npp);
+                            for p in 0..npp {
+                                let v = dg[ok + p];
+                                dg[oi + p] -= lik * v;
+                            }
+                        }
+                    }
+                    let d = l[i + i * m].re;
+                    for v in &mut ma_re[i * s * npp..(i + 1) * s * npp] {
+                        *v /= d;
+                    }
+                    for v in &mut ma_im[i * s * npp..(i + 1) * s * npp] {
+                        *v /= d;
+                    }
+                    for v in &mut dg[i * r * npp..(i + 1) * r * npp] {
+                        *v /= d;
+                    }
+                }
+                // Transient terms: `-sc L^-1 (dC + C R dA_d) R z`, the derivative of the
+                // whitened transient regressor, whose coefficients are the real `xi`.
+                // Laid out for `row_kernel`: per output and chunk of parameters, the `s` terms.
+                for i in 0..m {
+                    for q2 in 0..s {
+                        for c in 0..chunks {
+                            let mut outr = [0.0; LANES];
+                            let mut outi = [0.0; LANES];
+                            for q in 0..s {
+                                let rzq = res[q + q2 * s] * bin.z;
+                                let a = (i * s + q) * npp + c * LANES;
+                                let (are, aim) = (&ma_re[a..a + LANES], &ma_im[a..a + LANES]);
+                                for k in 0..LANES {
+                                    outr[k] += are[k] * rzq.re - aim[k] * rzq.im;
+                                    outi[k] += are[k] * rzq.im + aim[k] * rzq.re;
+                                }
+                            }
+                            let o = ((i * chunks + c) * s + q2) * 2 * LANES;
+                            let dst = &mut sw[o..o + 2 * LANES];
+                            for k in 0..LANES {
+                                dst[k] = outr[k] * -sc;
+                                dst[LANES + k] = outi[k] * -sc;
+                            }
+                        }
+                    }
+                }
+                // Complex terms: the input DFTs (`dG`) and, with the weight derivative, the
+                // whitened residuals (`Phi`): L^-1 dC L^-H = a b^H + b a^H with
+                // b = L^-1 G Su^1/2, a = L^-1 dG Su^1/2; d(L^-1) e = -Phi(L^-1 dC L^-H) L^-1 e
+                // (Cholesky derivative).
+                for i in 0..m {
+                    for t in 0..r {
+                        let o = (i * r + t) * npp;
+                        for p in 0..npp {
+                            let w = dg[o + p] * -sc;
+                            let at = ww_at(i, t, p);
                             ww[at] = w.re;
                             ww[at + LANES] = w.im;
                         }
                     }
                 }
-            }
-            let complex_terms = |i: usize| r + if weight_derivative { i + 1 } else { 0 };
-            // Rows of this bin in the block: hit `slot`, output `i`, real and imaginary.
-            let b0 = bi - bi % BLOCK_BINS;
-            let nbb = BLOCK_BINS.min(nb - b0);
-            let seg = 2 * m * nbb;
-            for (slot, &h) in group.hits.iter().enumerate() {
-                let u = &spectra.u[h].as_slice()[bi * r..(bi + 1) * r];
-                let xi_h = xi[h].as_slice();
-                let rv = &rs[slot * rows + 2 * bi * m..slot * rows + 2 * (bi + 1) * m];
-                coef[..r].copy_from_slice(u);
                 if weight_derivative {
-                    for i in 0..m {
-                        coef[r + i] = C64::new(rv[2 * i], rv[2 * i + 1]) / sc;
-                    }
-                }
-                for i in 0..m {
-                    // Transient terms (real coefficients) first, then the complex ones.
-                    let sw_i = &sw[i * chunks * s * 2 * LANES..(i + 1) * chunks * s * 2 * LANES];
-                    let ww_i = &ww[i * chunks * nc * 2 * LANES..(i + 1) * chunks * nc * 2 * LANES];
-                    row_kernel(sw_i, xi_h, ww_i, nc, &coef[..complex_terms(i)], &mut jri);
-                    #[cfg(test)]
-                    {
-                        let ro = row(bi, m, i);
-                        for p in 0..np {
-                            jts[slot][(ro, p)] = jri[p];
-                            jts[slot][(ro + 1, p)] = jri[npp + p];
+                    for li in 0..r {
+                        for i in 0..m {
+                            bw[i + li * m] = g[i + li * m] * noise.inputs[li];
                         }
                     }
-                    let ro = slot * seg + (bi - b0) * 2 * m + 2 * i;
-                    let (j_re, j_im) = jri.split_at(npp);
-                    for (p, (&a, &b)) in j_re[..np].iter().zip(j_im).enumerate() {
-                        jblk[p * cap + ro] = a;
-                        jblk[p * cap + ro + 1] = b;
+                    dense::forward_solve(l, m, bw, r);
+                    for p in 0..np {
+                        for li in 0..r {
+                            for i in 0..m {
+                                aw[i + li * m] = dg[(i * r + li) * npp + p] * noise.inputs[li];
+                            }
+                        }
+                        for j in 0..m {
+                            for i in j..m {
+                                let mut sij = ZERO;
+                                for li in 0..r {
+                                    sij += aw[i + li * m] * bw[j + li * m].conj()
+                                        + bw[i + li * m] * aw[j + li * m].conj();
+                                }
+                                let w = if i == j { sij * 0.5 } else { sij } * -sc;
+                                let at = ww_at(i, r + j, p);
+                                ww[at] = w.re;
+                                ww[at + LANES] = w.im;
+                            }
+                        }
                     }
-                    if second {
-                        row_kernel(sw_i, xi_h, ww_i, nc, &coef[..r], &mut jri2);
-                        let (j_re, j_im) = jri2.split_at(npp);
+                }
+                let complex_terms = |i: usize| r + if weight_derivative { i + 1 } else { 0 };
+                // Rows of this bin in the block: hit `slot`, output `i`, real and imaginary.
+                for (slot, &h) in group.hits.iter().enumerate() {
+                    let u = &spectra.u[h].as_slice()[bi * r..(bi + 1) * r];
+                    let xi_h = xi[h].as_slice();
+                    let rv = &rs[slot * rows + 2 * bi * m..slot * rows + 2 * (bi + 1) * m];
+                    coef[..r].copy_from_slice(u);
+                    if weight_derivative {
+                        for i in 0..m {
+                            coef[r + i] = C64::new(rv[2 * i], rv[2 * i + 1]) / sc;
+                        }
+                    }
+                    for i in 0..m {
+                        // Transient terms (real coefficients) first, then the complex ones.
+                        let sw_i =
+                            &sw[i * chunks * s * 2 * LANES..(i + 1) * chunks * s * 2 * LANES];
+                        let ww_i =
+                            &ww[i * chunks * nc * 2 * LANES..(i + 1) * chunks * nc * 2 * LANES];
+                        row_kernel(sw_i, xi_h, ww_i, nc, &coef[..complex_terms(i)], jri);
+                        #[cfg(test)]
+                        {
+                            sums.rows.push((slot, row(bi, m, i), jri.to_vec()));
+                        }
+                        let ro = slot * seg + (bi - b0) * 2 * m + 2 * i;
+                        let (j_re, j_im) = jri.split_at(npp);
                         for (p, (&a, &b)) in j_re[..np].iter().zip(j_im).enumerate() {
-                            jblk2[p * cap + ro] = a;
-                            jblk2[p * cap + ro + 1] = b;
+                            jblk[p * cap + ro] = a;
+                            jblk[p * cap + ro + 1] = b;
+                        }
+                        if second {
+                            row_kernel(sw_i, xi_h, ww_i, nc, &coef[..r], jri2);
+                            let (j_re, j_im) = jri2.split_at(npp);
+                            for (p, (&a, &b)) in j_re[..np].iter().zip(j_im).enumerate() {
+                                jblk2[p * cap + ro] = a;
+                                jblk2[p * cap + ro + 1] = b;
+                            }
                         }
                     }
                 }
             }
-            if bi + 1 == b0 + nbb {
-                // Block full: `J^T J` over all its rows, `J^T X` and `J^T r` per hit.
-                let used = hits_here * seg;
+            // Block full: `J^T J` over all its rows, `J^T X` and `J^T r` per hit.
+            let used = hits_here * seg;
+            for p in 0..np {
+                let cp = &jblk[p * cap..p * cap + used];
+                for q in p..np {
+                    sums.jtj[p * np + q] += dot(cp, &jblk[q * cap..q * cap + used]);
+                }
+            }
+            let first = 2 * m * b0;
+            for slot in 0..hits_here {
+                let jtx_h = &mut sums.jtx[slot * np * s..(slot + 1) * np * s];
+                let r_seg = &rs[slot * rows + first..slot * rows + first + seg];
                 for p in 0..np {
-                    let cp = &jblk[p * cap..p * cap + used];
+                    let jp = &jblk[p * cap + slot * seg..p * cap + (slot + 1) * seg];
+                    for q in 0..s {
+                        jtx_h[p * s + q] +=
+                            dot(jp, &xreal[q * rows + first..q * rows + first + seg]);
+                    }
+                    sums.jtr[slot * np + p] += dot(jp, r_seg);
+                }
+            }
+            if second {
+                for p in 0..np {
+                    let cp = &jblk2[p * cap..p * cap + used];
                     for q in p..np {
-                        jtj[p * np + q] += dot(cp, &jblk[q * cap..q * cap + used]);
+                        sums.jtj2[p * np + q] += dot(cp, &jblk2[q * cap..q * cap + used]);
                     }
                 }
-                let first = 2 * m * b0;
                 for slot in 0..hits_here {
-                    let jtx_h = &mut jtx[slot * np * s..(slot + 1) * np * s];
-                    let r_seg = &rs[slot * rows + first..slot * rows + first + seg];
+                    let jtx_h = &mut sums.jtx2[slot * np * s..(slot + 1) * np * s];
                     for p in 0..np {
-                        let jp = &jblk[p * cap + slot * seg..p * cap + (slot + 1) * seg];
+                        let jp = &jblk2[p * cap + slot * seg..p * cap + (slot + 1) * seg];
                         for q in 0..s {
                             jtx_h[p * s + q] +=
                                 dot(jp, &xreal[q * rows + first..q * rows + first + seg]);
                         }
-                        jtr[slot * np + p] += dot(jp, r_seg);
                     }
                 }
-                if second {
-                    for p in 0..np {
-                        let cp = &jblk2[p * cap..p * cap + used];
-                        for q in p..np {
-                            jtj2[p * np + q] += dot(cp, &jblk2[q * cap..q * cap + used]);
-                        }
+            }
+            Ok(sums)
+        };
+        let blocks: Vec<Result<BlockSums, Singular>> = (0..nb)
+            .step_by(BLOCK_BINS)
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            // A few jobs per thread, each with one scratch (the split changes no number).
+            .with_min_len(nb.div_ceil(BLOCK_BINS * 2 * rayon::current_num_threads()))
+            .map_init(scratch, pass2)
+            .collect();
+        #[cfg(test)]
+        let mut jts: Vec<DMatrix<f64>> = group
+            .hits
+            .iter()
+            .map(|_| DMatrix::zeros(rows, np))
+            .collect();
+        for block in blocks {
+            let block = block?;
+            for p in 0..np {
+                for q in p..np {
+                    jtj[p * np + q] += block.jtj[p * np + q];
+                }
+            }
+            for (a, b) in jtx.iter_mut().zip(&block.jtx) {
+                *a += b;
+            }
+            for (a, b) in jtr.iter_mut().zip(&block.jtr) {
+                *a += b;
+            }
+            if second {
+                for p in 0..np {
+                    for q in p..np {
+                        jtj2[p * np + q] += block.jtj2[p * np + q];
                     }
-                    for slot in 0..hits_here {
-                        let jtx_h = &mut jtx2[slot * np * s..(slot + 1) * np * s];
-                        for p in 0..np {
-                            let jp = &jblk2[p * cap + slot * seg..p * cap + (slot + 1) * seg];
-                            for q in 0..s {
-                                jtx_h[p * s + q] +=
-                                    dot(jp, &xreal[q * rows + first..q * rows + first + seg]);
-                            }
-                        }
-                    }
+                }
+                for (a, b) in jtx2.iter_mut().zip(&block.jtx2) {
+                    *a += b;
+                }
+            }
+            #[cfg(test)]
+            for (slot, ro, values) in block.rows {
+                for p in 0..np {
+                    jts[slot][(ro, p)] = values[p];
+                    jts[slot][(ro + 1, p)] = values[npp + p];
                 }
             }
         }

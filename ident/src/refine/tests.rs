@@ -668,3 +668,48 @@ fn recomputed_bins_give_the_same_refinement() {
         );
     }
 }
+
+/// The likelihood's passes run blocks of bins in parallel and add the blocks' sums in block
+/// order: the same numbers, bit for bit, on one thread and on three (several blocks of
+/// [`likelihood::BLOCK_BINS`] bins, noisy force, the per-bin cache on and off).
+#[test]
+fn likelihood_is_the_same_for_any_thread_count() {
+    let (m, k, r) = testkit::paper_case1().into_parts();
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let data_model = held_model(&m, &k, &r);
+    let records = random_records(&data_model, &mut rng, 3, 1024, 0.02);
+    let noise = Noise {
+        outputs: vec![0.02, 0.03],
+        inputs: vec![0.01],
+    };
+    for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
+        let refiner = Refiner::default().intersample(intersample);
+        let problem = refiner.problem(&records, DT, 2).unwrap();
+        assert!(problem.spectra.groups[0].bins.len() > 3 * likelihood::BLOCK_BINS);
+        let (theta, _) = param::project(&problem.params, &m, &k, &r.map(|v| v * 1.3));
+        for limit in [usize::MAX, 0] {
+            let on = |threads: usize| {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .build()
+                    .unwrap();
+                // The limit is per thread: set where the evaluation starts.
+                let ev = pool.install(|| {
+                    likelihood::CACHE_LIMIT.with(|c| c.set(limit));
+                    let ev = problem
+                        .evaluate(&theta, &noise, Want::JacobianAndFisher, true)
+                        .unwrap();
+                    likelihood::CACHE_LIMIT.with(|c| c.set(usize::MAX));
+                    ev
+                });
+                // `Debug` prints every number in its shortest round-trip form: equal text
+                // is equal bits.
+                format!(
+                    "{:?} {:?} {:?} {:?} {:?} {:?}",
+                    ev.cost, ev.xi, ev.fisher, ev.gradient, ev.expected_fisher, ev.residuals
+                )
+            };
+            assert_eq!(on(1), on(3), "{intersample:?}, cache limit {limit}");
+        }
+    }
+}
