@@ -6,6 +6,7 @@ use crate::linalg::C64;
 use crate::modal::Intersample;
 use crate::record::Record;
 use nalgebra::DMatrix;
+use rayon::prelude::*;
 use rustfft::{Fft, FftDirection, FftPlanner};
 use std::cell::RefCell;
 use std::collections::BTreeMap;
@@ -129,14 +130,18 @@ impl Spectra {
                 hits,
             });
         }
-        let mut scratch = Vec::new();
-        let mut y = Vec::with_capacity(records.len());
-        let mut u = Vec::with_capacity(records.len());
-        for (h, rec) in records.iter().enumerate() {
-            let keep = groups[group_of[h]].bins.len();
-            y.push(dft_rows(&rec.outputs, keep, &mut scratch));
-            u.push(dft_rows(&rec.inputs, keep, &mut scratch));
-        }
+        // Hits in parallel; each transform is the same whatever the thread.
+        let (y, u) = records
+            .par_iter()
+            .zip(&group_of)
+            .map_init(Vec::new, |scratch, (rec, &g)| {
+                let keep = groups[g].bins.len();
+                (
+                    dft_rows(&rec.outputs, keep, scratch),
+                    dft_rows(&rec.inputs, keep, scratch),
+                )
+            })
+            .unzip();
         Self { groups, y, u }
     }
 
@@ -194,55 +199,62 @@ pub(crate) fn noise_free_outputs(model: &Model, inputs: &[DMatrix<f64>]) -> Vec<
             // first in the real part, the second in the imaginary part).
             let mut kernels: BTreeMap<usize, Kernel> = BTreeMap::new();
             let mut scratch = Vec::new();
-            let mut out = Vec::with_capacity(inputs.len());
-            let mut uspec: Vec<C64> = Vec::new();
-            let mut spec: Vec<C64> = Vec::new();
             for u in inputs {
                 let len = u.ncols();
-                let kernel = kernels
+                kernels
                     .entry(len)
                     .or_insert_with(|| Kernel::new(model, len, decay, &mut scratch));
-                let q = kernel.q;
-                let fwd = plan(q, FftDirection::Forward);
-                let inv = plan(q, FftDirection::Inverse);
-                uspec.clear();
-                for l in 0..r {
-                    uspec.extend((0..len).map(|t| C64::new(u[(l, t)], 0.0)));
-                    uspec.resize((l + 1) * q, C64::new(0.0, 0.0));
-                }
-                for buf in uspec.chunks_exact_mut(q) {
-                    transform(fwd.as_ref(), buf, &mut scratch);
-                }
-                let mut y = DMatrix::zeros(n, len);
-                spec.resize(q, C64::new(0.0, 0.0));
-                for i in (0..n).step_by(2) {
-                    let second = (i + 1 < n).then_some(i + 1);
-                    // spec = sum_l (G_il + j G_i2l) U_l, input by input.
-                    if r == 0 {
-                        spec.fill(C64::new(0.0, 0.0));
-                    }
-                    for l in 0..r {
-                        let g2 = second.map(|i2| kernel.spectra[i2 + l * n].as_slice());
-                        response_terms(
-                            &mut spec,
-                            &kernel.spectra[i + l * n],
-                            g2,
-                            &uspec[l * q..(l + 1) * q],
-                            l > 0,
-                        );
-                    }
-                    transform(inv.as_ref(), &mut spec, &mut scratch);
-                    let scale = 1.0 / q as f64;
-                    for t in 0..len {
-                        y[(i, t)] = spec[t].re * scale;
-                        if let Some(i2) = second {
-                            y[(i2, t)] = spec[t].im * scale;
-                        }
-                    }
-                }
-                out.push(y);
             }
-            out
+            // Records in parallel, each with its own buffers (the same numbers on any thread).
+            inputs
+                .par_iter()
+                .map_init(
+                    || (Vec::new(), Vec::new(), Vec::new()),
+                    |(scratch, uspec, spec): &mut (Vec<C64>, Vec<C64>, Vec<C64>), u| {
+                        let len = u.ncols();
+                        let kernel = &kernels[&len];
+                        let q = kernel.q;
+                        let fwd = plan(q, FftDirection::Forward);
+                        let inv = plan(q, FftDirection::Inverse);
+                        uspec.clear();
+                        for l in 0..r {
+                            uspec.extend((0..len).map(|t| C64::new(u[(l, t)], 0.0)));
+                            uspec.resize((l + 1) * q, C64::new(0.0, 0.0));
+                        }
+                        for buf in uspec.chunks_exact_mut(q) {
+                            transform(fwd.as_ref(), buf, scratch);
+                        }
+                        let mut y = DMatrix::zeros(n, len);
+                        spec.resize(q, C64::new(0.0, 0.0));
+                        for i in (0..n).step_by(2) {
+                            let second = (i + 1 < n).then_some(i + 1);
+                            // spec = sum_l (G_il + j G_i2l) U_l, input by input.
+                            if r == 0 {
+                                spec.fill(C64::new(0.0, 0.0));
+                            }
+                            for l in 0..r {
+                                let g2 = second.map(|i2| kernel.spectra[i2 + l * n].as_slice());
+                                response_terms(
+                                    spec,
+                                    &kernel.spectra[i + l * n],
+                                    g2,
+                                    &uspec[l * q..(l + 1) * q],
+                                    l > 0,
+                                );
+                            }
+                            transform(inv.as_ref(), spec, scratch);
+                            let scale = 1.0 / q as f64;
+                            for t in 0..len {
+                                y[(i, t)] = spec[t].re * scale;
+                                if let Some(i2) = second {
+                                    y[(i2, t)] = spec[t].im * scale;
+                                }
+                            }
+                        }
+                        y
+                    },
+                )
+                .collect()
         }
     }
 }
