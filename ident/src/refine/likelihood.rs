@@ -774,6 +774,9 @@ pub(crate) fn evaluate(
             jri: Vec<f64>,
             jblk2: Vec<f64>,
             jri2: Vec<f64>,
+            rz: Vec<C64>,
+            acc_re: Vec<f64>,
+            acc_im: Vec<f64>,
         }
         // Per bin, `[(a * cols + b) * npp + p]`: `dC + C (z I - A_d)^-1 dA_d` (m x s, real and
         // imaginary parts), `dG` (m x r) and, band-limited, `E_p G` (n x r).
@@ -793,6 +796,9 @@ pub(crate) fn evaluate(
             jri: vec![0.0; np2],
             jblk2: vec![0.0; if second { np * cap } else { 0 }],
             jri2: vec![0.0; np2],
+            rz: vec![ZERO; s * s],
+            acc_re: vec![0.0; npp],
+            acc_im: vec![0.0; npp],
         };
         /// One block's `J^T J` (upper triangle, row-major), and per hit `J^T X` and
         /// `J^T r` (and the same without the weight derivative).
@@ -825,6 +831,9 @@ pub(crate) fn evaluate(
                 jri,
                 jblk2,
                 jri2,
+                rz,
+                acc_re,
+                acc_im,
             } = scratch;
             let nbb = BLOCK_BINS.min(nb - b0);
             let seg = 2 * m * nbb;
@@ -855,24 +864,23 @@ pub(crate) fn evaluate(
                 let l = slice(&cache.l, bi, m * m);
                 let sc = sc_of(bin);
                 // dT/dtheta_p (z I - A_d)^-1 with T = C (z I - A_d)^-1 z: `dC + C R dA_d`.
+                // Per output `i`, the `s npp` values of `(q, p)` are contiguous in `dC`,
+                // `dA_d` (row `t`) and the result: axpys over whole rows, summed over `t` in
+                // order.
+                let row_len = s * npp;
                 for i in 0..m {
-                    for q in 0..s {
-                        for c0 in (0..npp).step_by(LANES) {
-                            let o = (i * s + q) * npp + c0;
-                            let mut are = [0.0; LANES];
-                            are.copy_from_slice(&dc[o..o + LANES]);
-                            let mut aim = [0.0; LANES];
-                            for t in 0..s {
-                                let c = cr[i + t * m];
-                                let d =
-                                    &dad[(t * s + q) * npp + c0..(t * s + q) * npp + c0 + LANES];
-                                for k in 0..LANES {
-                                    are[k] += c.re * d[k];
-                                    aim[k] += c.im * d[k];
-                                }
-                            }
-                            ma_re[o..o + LANES].copy_from_slice(&are);
-                            ma_im[o..o + LANES].copy_from_slice(&aim);
+                    let (are, aim) = (
+                        &mut ma_re[i * row_len..(i + 1) * row_len],
+                        &mut ma_im[i * row_len..(i + 1) * row_len],
+                    );
+                    are.copy_from_slice(&dc[i * row_len..(i + 1) * row_len]);
+                    aim.fill(0.0);
+                    for t in 0..s {
+                        let c = cr[i + t * m];
+                        let d = &dad[t * row_len..(t + 1) * row_len];
+                        for ((re, im), &d) in are.iter_mut().zip(aim.iter_mut()).zip(d) {
+                            *re += c.re * d;
+                            *im += c.im * d;
                         }
                     }
                 }
@@ -976,25 +984,38 @@ pub(crate) fn evaluate(
                 // Transient terms: `-sc L^-1 (dC + C R dA_d) R z`, the derivative of the
                 // whitened transient regressor, whose coefficients are the real `xi`.
                 // Laid out for `row_kernel`: per output and chunk of parameters, the `s` terms.
+                for (v, r) in rz.iter_mut().zip(res) {
+                    *v = r * bin.z;
+                }
                 for i in 0..m {
+                    let (mre, mim) = (
+                        &ma_re[i * row_len..(i + 1) * row_len],
+                        &ma_im[i * row_len..(i + 1) * row_len],
+                    );
                     for q2 in 0..s {
-                        for c in 0..chunks {
-                            let mut outr = [0.0; LANES];
-                            let mut outi = [0.0; LANES];
-                            for q in 0..s {
-                                let rzq = res[q + q2 * s] * bin.z;
-                                let a = (i * s + q) * npp + c * LANES;
-                                let (are, aim) = (&ma_re[a..a + LANES], &ma_im[a..a + LANES]);
-                                for k in 0..LANES {
-                                    outr[k] += are[k] * rzq.re - aim[k] * rzq.im;
-                                    outi[k] += are[k] * rzq.im + aim[k] * rzq.re;
-                                }
+                        acc_re.fill(0.0);
+                        acc_im.fill(0.0);
+                        for q in 0..s {
+                            let w = rz[q + q2 * s];
+                            let (a_re, a_im) =
+                                (&mre[q * npp..(q + 1) * npp], &mim[q * npp..(q + 1) * npp]);
+                            for (((or, oi), &ar), &ai) in
+                                acc_re.iter_mut().zip(acc_im.iter_mut()).zip(a_re).zip(a_im)
+                            {
+                                *or += ar * w.re - ai * w.im;
+                                *oi += ar * w.im + ai * w.re;
                             }
+                        }
+                        for (c, (cre, cim)) in acc_re
+                            .chunks_exact(LANES)
+                            .zip(acc_im.chunks_exact(LANES))
+                            .enumerate()
+                        {
                             let o = ((i * chunks + c) * s + q2) * 2 * LANES;
                             let dst = &mut sw[o..o + 2 * LANES];
                             for k in 0..LANES {
-                                dst[k] = outr[k] * -sc;
-                                dst[LANES + k] = outi[k] * -sc;
+                                dst[k] = cre[k] * -sc;
+                                dst[LANES + k] = cim[k] * -sc;
                             }
                         }
                     }
