@@ -359,9 +359,15 @@ fn cache_bytes() -> usize {
 }
 
 /// Per-bin model quantities of a group, kept between the passes: all of
-/// them (`full`), or `G` and `L` only.
+/// them (`full`), or `G` and `L` only; one [`CacheBlock`] per block of
+/// [`BLOCK_BINS`] bins, filled by the block's task in pass 1.
 struct Cache {
     full: bool,
+    blocks: Vec<CacheBlock>,
+}
+
+/// The cached quantities of one block's bins, one after another.
+struct CacheBlock {
     res: Vec<C64>,
     cr: Vec<C64>,
     rb: Vec<C64>,
@@ -370,83 +376,46 @@ struct Cache {
     l: Vec<C64>,
 }
 
-/// The part of a [`Cache`] that holds one block's bins (empty slices for the quantities a
-/// cache that is not `full` does not keep).
-struct CacheBlock<'a> {
-    res: &'a mut [C64],
-    cr: &'a mut [C64],
-    rb: &'a mut [C64],
-    qi: &'a mut [C64],
-    g: &'a mut [C64],
-    l: &'a mut [C64],
-}
-
 impl Cache {
-    fn new(work: &BinWork, nb: usize) -> Self {
+    /// Whether a group of `nb` bins keeps everything (within [`CACHE_BYTES`]).
+    fn full(work: &BinWork, nb: usize) -> bool {
         let per_bin = work.res.len()
             + work.cr.len()
             + work.rb.len()
             + work.qi.len()
             + work.g.len()
             + work.l.len();
-        let full = nb.saturating_mul(per_bin * std::mem::size_of::<C64>()) <= cache_bytes();
-        let of = |len: usize| vec![ZERO; if full { nb * len } else { 0 }];
+        nb.saturating_mul(per_bin * std::mem::size_of::<C64>()) <= cache_bytes()
+    }
+
+    /// The quantity `pick` (`len` values per bin) of bin `bi`.
+    fn get(&self, bi: usize, pick: fn(&CacheBlock) -> &Vec<C64>, len: usize) -> &[C64] {
+        slice(pick(&self.blocks[bi / BLOCK_BINS]), bi % BLOCK_BINS, len)
+    }
+}
+
+impl CacheBlock {
+    fn new(work: &BinWork, bins: usize, full: bool) -> Self {
+        let of = |len: usize| Vec::with_capacity(if full { bins * len } else { 0 });
         Self {
-            full,
             res: of(work.res.len()),
             cr: of(work.cr.len()),
             rb: of(work.rb.len()),
             qi: of(work.qi.len()),
-            g: vec![ZERO; nb * work.g.len()],
-            l: vec![ZERO; nb * work.l.len()],
+            g: Vec::with_capacity(bins * work.g.len()),
+            l: Vec::with_capacity(bins * work.l.len()),
         }
     }
 
-    /// One mutable view per block of [`BLOCK_BINS`] bins (of `nb` bins in all).
-    fn blocks(&mut self, nb: usize) -> Vec<CacheBlock<'_>> {
-        fn split(v: &mut [C64], nb: usize) -> Vec<&mut [C64]> {
-            let nblocks = nb.div_ceil(BLOCK_BINS);
-            if v.is_empty() {
-                (0..nblocks).map(|_| Default::default()).collect()
-            } else {
-                let len = v.len() / nb;
-                v.chunks_mut(BLOCK_BINS * len).collect()
-            }
+    fn push(&mut self, work: &BinWork, full: bool) {
+        if full {
+            self.res.extend_from_slice(&work.res);
+            self.cr.extend_from_slice(&work.cr);
+            self.rb.extend_from_slice(&work.rb);
+            self.qi.extend_from_slice(&work.qi);
         }
-        let nblocks = nb.div_ceil(BLOCK_BINS);
-        let mut res = split(&mut self.res, nb).into_iter();
-        let mut cr = split(&mut self.cr, nb).into_iter();
-        let mut rb = split(&mut self.rb, nb).into_iter();
-        let mut qi = split(&mut self.qi, nb).into_iter();
-        let mut g = split(&mut self.g, nb).into_iter();
-        let mut l = split(&mut self.l, nb).into_iter();
-        (0..nblocks)
-            .map(|_| CacheBlock {
-                res: res.next().expect("one chunk per block"),
-                cr: cr.next().expect("one chunk per block"),
-                rb: rb.next().expect("one chunk per block"),
-                qi: qi.next().expect("one chunk per block"),
-                g: g.next().expect("one chunk per block"),
-                l: l.next().expect("one chunk per block"),
-            })
-            .collect()
-    }
-}
-
-impl CacheBlock<'_> {
-    /// Stores the quantities of `work` for the block's bin `lb`.
-    fn store(&mut self, work: &BinWork, lb: usize) {
-        let put = |dst: &mut [C64], src: &[C64]| {
-            if !dst.is_empty() {
-                dst[lb * src.len()..(lb + 1) * src.len()].copy_from_slice(src);
-            }
-        };
-        put(self.res, &work.res);
-        put(self.cr, &work.cr);
-        put(self.rb, &work.rb);
-        put(self.qi, &work.qi);
-        put(self.g, &work.g);
-        put(self.l, &work.l);
+        self.g.extend_from_slice(&work.g);
+        self.l.extend_from_slice(&work.l);
     }
 }
 
@@ -515,7 +484,7 @@ pub(crate) fn evaluate(
         let mut xreal = vec![0.0; rows * s];
         // Whitened, scaled residuals, `rows` values per hit (slot).
         let mut rs = vec![0.0; hits_here * rows];
-        let mut cache = Cache::new(&work, nb);
+        let full = Cache::full(&work, nb);
         let nblocks = nb.div_ceil(BLOCK_BINS);
         // Rows of one block in a column of `X` or a hit's residual.
         let block_rows = 2 * m * BLOCK_BINS;
@@ -536,23 +505,19 @@ pub(crate) fn evaluate(
         // parallel, each writing its own rows; `X^T X` (upper triangle, column-major) is
         // summed per block and the blocks' sums are added in block order, so the result
         // does not depend on the number of threads.
-        let pass1 = |(b0, mut cache, mut xcols, mut rcols): (
-            usize,
-            CacheBlock<'_>,
-            Vec<&mut [f64]>,
-            Vec<&mut [f64]>,
-        )|
-         -> Result<Vec<f64>, Singular> {
+        let pass1 = |(b0, mut xcols, mut rcols): (usize, Vec<&mut [f64]>, Vec<&mut [f64]>)|
+         -> Result<(Vec<f64>, CacheBlock), Singular> {
             let mut work = BinWork::new(model);
             let mut tx = vec![ZERO; m * s];
             let mut xb = vec![ZERO; m * s];
             let mut e = vec![ZERO; m];
             let mut xtx_upper = vec![0.0; s * s];
             let end = (b0 + BLOCK_BINS).min(nb);
+            let mut cache = CacheBlock::new(&work, end - b0, full);
             for (lb, bin) in group.bins[b0..end].iter().enumerate() {
                 let bi = b0 + lb;
                 work.compute(model, bin, noise)?;
-                cache.store(&work, lb);
+                cache.push(&work, full);
                 let sc = sc_of(bin);
                 for (v, c) in tx.iter_mut().zip(&work.cr) {
                     *v = c * bin.z;
@@ -598,24 +563,28 @@ pub(crate) fn evaluate(
                     }
                 }
             }
-            Ok(xtx_upper)
+            Ok((xtx_upper, cache))
         };
-        let sums: Vec<Result<Vec<f64>, Singular>> = cache
-            .blocks(nb)
+        let sums: Vec<Result<(Vec<f64>, CacheBlock), Singular>> = x_blocks
             .into_iter()
-            .zip(x_blocks)
             .zip(r_blocks)
             .enumerate()
-            .map(|(b, ((c, x), rr))| (b * BLOCK_BINS, c, x, rr))
+            .map(|(b, (x, rr))| (b * BLOCK_BINS, x, rr))
             .collect::<Vec<_>>()
             .into_par_iter()
             .map(pass1)
             .collect();
         let mut xtx_upper = vec![0.0; s * s];
+        let mut cache = Cache {
+            full,
+            blocks: Vec::with_capacity(nblocks),
+        };
         for sum in sums {
-            for (a, b) in xtx_upper.iter_mut().zip(&sum?) {
+            let (sum, block) = sum?;
+            for (a, b) in xtx_upper.iter_mut().zip(&sum) {
                 *a += b;
             }
+            cache.blocks.push(block);
         }
         let xtx = DMatrix::from_fn(s, s, |a, b| {
             if a <= b {
@@ -626,7 +595,7 @@ pub(crate) fn evaluate(
         });
         if let Some(all) = gains.as_mut() {
             all.push(DMatrix::from_fn(m * r, nb, |idx, bi| {
-                cache.g[bi * m * r + idx].norm_sqr()
+                cache.get(bi, |b| &b.g, m * r)[idx].norm_sqr()
             }));
         }
         let xt_mul = |v: &[f64], out: &mut [f64]| {
@@ -688,7 +657,7 @@ pub(crate) fn evaluate(
                 let rv = &rs[slot * rows..(slot + 1) * rows];
                 let mut out = DMatrix::zeros(m, nb);
                 for (bi, bin) in group.bins.iter().enumerate() {
-                    let l = slice(&cache.l, bi, m * m);
+                    let l = cache.get(bi, |b| &b.l, m * m);
                     let sc = sc_of(bin);
                     for i in 0..m {
                         let mut v = ZERO;
@@ -850,18 +819,18 @@ pub(crate) fn evaluate(
                 let bi = b0 + lb;
                 let (res, cr, rb, qi) = if cache.full {
                     (
-                        slice(&cache.res, bi, s * s),
-                        slice(&cache.cr, bi, m * s),
-                        slice(&cache.rb, bi, s * r),
-                        slice(&cache.qi, bi, n * n),
+                        cache.get(bi, |b| &b.res, s * s),
+                        cache.get(bi, |b| &b.cr, m * s),
+                        cache.get(bi, |b| &b.rb, s * r),
+                        cache.get(bi, |b| &b.qi, n * n),
                     )
                 } else {
                     // Succeeds: it did for this bin in pass 1.
                     work.compute(model, bin, noise)?;
                     (&work.res[..], &work.cr[..], &work.rb[..], &work.qi[..])
                 };
-                let g = slice(&cache.g, bi, m * r);
-                let l = slice(&cache.l, bi, m * m);
+                let g = cache.get(bi, |b| &b.g, m * r);
+                let l = cache.get(bi, |b| &b.l, m * m);
                 let sc = sc_of(bin);
                 // dT/dtheta_p (z I - A_d)^-1 with T = C (z I - A_d)^-1 z: `dC + C R dA_d`.
                 // Per output `i`, the `s npp` values of `(q, p)` are contiguous in `dC`,
