@@ -1118,7 +1118,10 @@ pub(crate) fn evaluate(
             .collect::<Vec<_>>()
             .into_par_iter()
             // A few jobs per thread, each with one scratch (the split changes no number).
-            .with_min_len(nb.div_ceil(BLOCK_BINS * 2 * rayon::current_num_threads()))
+            .with_min_len(
+                nb.div_ceil(BLOCK_BINS * 2 * rayon::current_num_threads())
+                    .max(1),
+            )
             .map_init(scratch, pass2)
             .collect();
         #[cfg(test)]
