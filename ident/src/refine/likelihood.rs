@@ -15,6 +15,11 @@
 //! matrix is the Schur complement `J^T J - J^T X (X^T X)^-1 X^T J` (`X = dr/dxi`), the
 //! information about the parameters with the transients eliminated. The gradient `J^T r`
 //! of the projected cost is exact (`X^T r = 0` at the projected solution).
+//!
+//! Both passes over the bins (residuals and transient regressors; Jacobian rows reduced to
+//! `J^T J`, `J^T X` and `J^T r`) run blocks of [`BLOCK_BINS`] bins as parallel tasks. Each
+//! block sums its own bins in order and the blocks' sums are added in block order, so the
+//! numbers do not depend on the number of threads or on how rayon splits the work.
 
 use super::dense;
 use super::model::Model;
