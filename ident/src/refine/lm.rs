@@ -68,7 +68,7 @@ pub(crate) fn minimize<E>(
     mu: f64,
     eval: impl FnMut(&DVector<f64>, f64) -> Option<Point<E>>,
 ) -> Outcome<E> {
-    let (outcome, _) = iterate(theta, start, settings, mu, eval, None::<Tail<NoTail<E>>>);
+    let (outcome, _) = iterate(theta, start, settings, mu, eval, None::<NoTail<E>>);
     outcome
 }
 
@@ -105,37 +105,23 @@ impl<E> End<E> {
 }
 
 /// Like [`minimize`], for a run whose last point needs only its cost (and `extra`): a step
-/// whose quadratic model leaves at most `remaining` of the decrease a full Gauss-Newton step
-/// would bring (`d - predicted` with `d` that decrease) is evaluated by `eval_cost` alone,
-/// and the run ends at the point it reaches if the actual decrease is positive and leaves at
-/// most `remaining` as well (`d - actual`). Otherwise the point is evaluated again by `eval`
-/// (if the cost went down) and the run goes on as [`minimize`] would: only the cost
-/// evaluation is lost. At points with the Jacobian the run also stops once `d` itself is at
-/// most `remaining`.
+/// whose quadratic model leaves at most the run's stop threshold of the decrease a full
+/// Gauss-Newton step would bring (`d - predicted` with `d` that decrease; the threshold is
+/// `cost_tolerance` times the cost or `decrease_tolerance`, whichever is larger, the one
+/// the run also stops at when `d` itself is below it) is evaluated by `eval_tail` alone,
+/// and the run ends at the point it reaches if the actual decrease is positive and leaves
+/// at most the threshold as well (`d - actual`). Otherwise the point is evaluated again by
+/// `eval` (if the cost went down) and the run goes on as [`minimize`] would: only the
+/// `eval_tail` evaluation is lost.
 pub(crate) fn minimize_to_tail<E>(
     theta: DVector<f64>,
     start: Point<E>,
     settings: Settings,
     mu: f64,
-    remaining: f64,
     eval: impl FnMut(&DVector<f64>, f64) -> Option<Point<E>>,
-    eval_cost: impl FnMut(&DVector<f64>) -> Option<(f64, E)>,
+    eval_tail: impl FnMut(&DVector<f64>) -> Option<(f64, E)>,
 ) -> TailOutcome<E> {
-    let settings = Settings {
-        decrease_tolerance: settings.decrease_tolerance.max(remaining),
-        ..settings
-    };
-    let (outcome, tail) = iterate(
-        theta,
-        start,
-        settings,
-        mu,
-        eval,
-        Some(Tail {
-            remaining,
-            eval_cost,
-        }),
-    );
+    let (outcome, tail) = iterate(theta, start, settings, mu, eval, Some(eval_tail));
     match tail {
         Some(tail) => TailOutcome {
             theta: tail.theta.clone(),
@@ -154,26 +140,19 @@ pub(crate) fn minimize_to_tail<E>(
     }
 }
 
-/// The cost-only last step of [`minimize_to_tail`].
-struct Tail<F> {
-    remaining: f64,
-    eval_cost: F,
-}
-
-/// The cost evaluation of [`minimize`], which never takes a cost-only step.
+/// The tail evaluation of [`minimize`], which never takes a tail step.
 type NoTail<E> = fn(&DVector<f64>) -> Option<(f64, E)>;
 
-/// The Levenberg–Marquardt loop. With `tail`, the run may end at a point evaluated for its
-/// cost only: that point is returned beside the outcome, whose `theta` and `point` are
-/// then the last point with the Jacobian (the `damping`, `iterations` and `stop` are the
-/// run's).
+/// The Levenberg–Marquardt loop. With `eval_tail`, the run may end at a point evaluated by
+/// it: that point is returned beside the outcome, whose `theta` and `point` are then the
+/// last point with the Jacobian (the `damping`, `iterations` and `stop` are the run's).
 fn iterate<E, F: FnMut(&DVector<f64>) -> Option<(f64, E)>>(
     theta: DVector<f64>,
     start: Point<E>,
     settings: Settings,
     mu: f64,
     mut eval: impl FnMut(&DVector<f64>, f64) -> Option<Point<E>>,
-    mut tail: Option<Tail<F>>,
+    mut eval_tail: Option<F>,
 ) -> (Outcome<E>, Option<TailPoint<E>>) {
     let p = theta.len();
     let mut theta = theta;
@@ -205,9 +184,8 @@ fn iterate<E, F: FnMut(&DVector<f64>) -> Option<(f64, E)>>(
             gn[(i, i)] += GAUSS_NEWTON_REGULARIZATION;
         }
         let full_decrease = gn.cholesky().map(|chol| gs.dot(&chol.solve(&gs)));
-        if full_decrease.is_some_and(|d| {
-            d <= (settings.cost_tolerance * point.cost).max(settings.decrease_tolerance)
-        }) {
+        let threshold = (settings.cost_tolerance * point.cost).max(settings.decrease_tolerance);
+        if full_decrease.is_some_and(|d| d <= threshold) {
             break StopReason::Cost;
         }
         let mut lhs = fs.clone();
@@ -229,11 +207,11 @@ fn iterate<E, F: FnMut(&DVector<f64>) -> Option<(f64, E)>>(
         let small_step =
             ds.norm() <= settings.step_tolerance * (theta_norm + settings.step_tolerance);
         let candidate = &theta + &delta;
-        let trial = match (&mut tail, full_decrease) {
-            (Some(tail), Some(d)) if predicted > 0.0 && d - predicted <= tail.remaining => {
-                match (tail.eval_cost)(&candidate).filter(|(cost, _)| cost.is_finite()) {
+        let trial = match (&mut eval_tail, full_decrease) {
+            (Some(eval_tail), Some(d)) if predicted > 0.0 && d - predicted <= threshold => {
+                match eval_tail(&candidate).filter(|(cost, _)| cost.is_finite()) {
                     Some((cost, extra))
-                        if point.cost - cost > 0.0 && d - (point.cost - cost) <= tail.remaining =>
+                        if point.cost - cost > 0.0 && d - (point.cost - cost) <= threshold =>
                     {
                         let rho = (point.cost - cost) / predicted;
                         mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
