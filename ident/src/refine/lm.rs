@@ -109,10 +109,11 @@ impl<E> End<E> {
 /// Gauss-Newton step would bring (`d - predicted` with `d` that decrease; the threshold is
 /// `cost_tolerance` times the cost or `decrease_tolerance`, whichever is larger, the one
 /// the run also stops at when `d` itself is below it) is evaluated by `eval_tail` alone,
-/// and the run ends at the point it reaches if the actual decrease is positive and leaves
-/// at most the threshold as well (`d - actual`). Otherwise the point is evaluated again by
-/// `eval` (if the cost went down) and the run goes on as [`minimize`] would: only the
-/// `eval_tail` evaluation is lost.
+/// and the run ends at the point it reaches if the cost went down and the actual decrease
+/// matches the predicted one within the threshold (the model, which says what is left, is
+/// that accurate there; an actual decrease beyond the prediction says it is not either).
+/// Otherwise the point is evaluated again by `eval` (if the cost went down) and the run goes
+/// on as [`minimize`] would: only the `eval_tail` evaluation is lost.
 pub(crate) fn minimize_to_tail<E>(
     theta: DVector<f64>,
     start: Point<E>,
@@ -211,7 +212,8 @@ fn iterate<E, F: FnMut(&DVector<f64>) -> Option<(f64, E)>>(
             (Some(eval_tail), Some(d)) if predicted > 0.0 && d - predicted <= threshold => {
                 match eval_tail(&candidate).filter(|(cost, _)| cost.is_finite()) {
                     Some((cost, extra))
-                        if point.cost - cost > 0.0 && d - (point.cost - cost) <= threshold =>
+                        if point.cost - cost > 0.0
+                            && (point.cost - cost - predicted).abs() <= threshold =>
                     {
                         let rho = (point.cost - cost) / predicted;
                         mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);

@@ -68,13 +68,13 @@
 //!
 //! # Optimizer
 //!
-//! Levenberg–Marquardt with Moré's scaling; steps that make M or K indefinite are rejected
-//! like steps that increase the cost. The stop reason is data ([`StopReason`]). A run usually ends
-//! at a point reached by a step that, by its quadratic model and its actual decrease, leaves
-//! less than a tolerance of the decrease a full Gauss-Newton step would bring; that point
-//! is evaluated only for what follows (the residuals for the noise fit, or the expected
-//! Fisher information at the estimate), not for another step (`LOOSE_DECREASE`,
-//! [`STATISTICAL_TOLERANCE`]).
+//! Levenberg–Marquardt with Moré's scaling; steps that make M or K indefinite are rejected like
+//! steps that increase the cost. The stop reason is data ([`StopReason`]). A run usually ends
+//! at a point reached by a step that, by its quadratic model (whose predicted decrease the
+//! actual one matches within the same tolerance), leaves less than a tolerance of the decrease
+//! a full Gauss-Newton step would bring; that point is evaluated only for what follows (the
+//! residuals for the noise fit, or the expected Fisher information at the estimate), not for
+//! another step (`LOOSE_DECREASE`, [`STATISTICAL_TOLERANCE`]).
 //!
 //! The first run weighs the bins by the residuals of the initial guess (mostly model error,
 //! largest near the resonances, so the resonances are down-weighted): a relative-error fit
@@ -302,27 +302,26 @@ pub const NOISE_CHANGE_TOLERANCE: f64 = 0.1;
 pub(crate) const LOOSE_TOLERANCE: f64 = 1e-4;
 
 /// Decrease of the cost (twice the negative log-likelihood) a full Gauss-Newton step would
-/// still bring, relative to the cost, below which a run before the last noise update ends
-/// (its `cost_tolerance`). Such a run only gives the residuals of the noise fit and the
-/// start of the next run, so it ends at a point reached by a step whose quadratic model,
-/// and actual decrease, leave at most this much, and that point is evaluated for its
-/// residuals only, without the Jacobian (a quarter of the work; see
-/// `lm::minimize_to_tail`). On 10-hit paper-case-1 campaigns (cost near 30000, 41000
-/// held) that is a decrease of 0.5 (0.65) left, a residual power 1.6e-5 above the run's
-/// minimum: far below the noise levels' own statistical error (0.6 % from 7690 bins a
-/// channel). It is relative, as the noise fit's sensitivity is, so that it means the same
-/// on costs far from the number of observations (nearly noise-free records, whose noise
-/// levels are model error). It is tighter than the gradient-cosine test ([`LOOSE_TOLERANCE`]) those runs
-/// used before, which left decreases up to 1.85 (6e-5 of the cost), so that the last run
-/// starts closer and usually needs one step fewer. On twenty analyzer and five held 10-hit
-/// paper-case-1 campaigns (1 % noise), with the last run's final point as in
-/// [`STATISTICAL_TOLERANCE`], a refinement made 6 evaluations with the Jacobian, one
-/// without the weights' derivative and 4 of the cost only, instead of 9 with the Jacobian
-/// and 2 of the cost (every campaign; 21 % fewer instructions on the first); the estimated
-/// noise levels moved by at most 9.4e-5 (outputs) and 1.4e-3 (force) relative, less than
-/// the alternation's own distance to its fixed point (for the force 2.3e-3 after, 3.3e-3
-/// before, against a fully converged alternation), and the parameters by at most 1.45e-3
-/// of their standard deviations (3.8e-6 relative).
+/// still bring, relative to the cost, below which a run before the last noise update ends (its
+/// `cost_tolerance`). Such a run only gives the residuals of the noise fit and the start of the
+/// next run, so it ends at a point reached by a step whose quadratic model leaves at most this
+/// much (its predicted decrease matching the actual one that closely), and that point is
+/// evaluated for its residuals only, without the Jacobian (a quarter of the work; see
+/// `lm::minimize_to_tail`). On 10-hit paper-case-1 campaigns (cost near 30000, 41000 held) that
+/// is a decrease of 0.5 (0.65) left, a residual power 1.6e-5 above the run's minimum: far below
+/// the noise levels' own statistical error (0.6 % from 7690 bins a channel). It is relative, as
+/// the noise fit's sensitivity is, so that it means the same on costs far from the number of
+/// observations (nearly noise-free records, whose noise levels are model error). It is tighter
+/// than the gradient-cosine test ([`LOOSE_TOLERANCE`]) those runs used before, which left
+/// decreases up to 1.85 (6e-5 of the cost), so that the last run starts closer and usually
+/// needs one step fewer. On twenty analyzer and five held 10-hit paper-case-1 campaigns (1 %
+/// noise), with the last run's final point as in [`STATISTICAL_TOLERANCE`], a refinement made 6
+/// evaluations with the Jacobian, one without the weights' derivative and 4 of the cost only,
+/// instead of 9 with the Jacobian and 2 of the cost (every campaign; 21 % fewer instructions on
+/// the first); the estimated noise levels moved by at most 9.4e-5 (outputs) and 1.4e-3 (force)
+/// relative, less than the alternation's own distance to its fixed point (for the force 2.3e-3
+/// after, 3.3e-3 before, against a fully converged alternation), and the parameters by at most
+/// 1.45e-3 of their standard deviations (3.8e-6 relative).
 pub(crate) const LOOSE_DECREASE: f64 = 1.6e-5;
 
 /// Decrease of the cost (twice the negative log-likelihood) a full Gauss-Newton step would
@@ -335,13 +334,13 @@ pub(crate) const LOOSE_DECREASE: f64 = 1.6e-5;
 /// every parameter by at most 2.6e-3 of its standard deviation (1.5e-6 relative), the
 /// standard deviations by at most 1.4e-6 and the modal parameters by 5e-7 relative.
 ///
-/// The last run usually ends before that test can be made at a point: a step whose
-/// quadratic model leaves at most this decrease, and whose actual decrease leaves at most
-/// this much too, ends it, and the point it reaches is evaluated without the weights'
-/// derivative (see `lm::minimize_to_tail`). That pass gives the expected Fisher information
-/// for the standard errors directly and costs a third less than the exact Jacobian with
-/// that matrix beside it. Checked on the 25 campaigns above (the point evaluated with the
-/// Jacobian): the decrease left there was 0.991 to 1.041 times the model's.
+/// The last run usually ends before that test can be made at a point: a step whose quadratic
+/// model leaves at most this decrease, and whose actual decrease matches the predicted one
+/// within this much too, ends it, and the point it reaches is evaluated without the weights'
+/// derivative (see `lm::minimize_to_tail`). That pass gives the expected Fisher information for
+/// the standard errors directly and costs a third less than the exact Jacobian with that matrix
+/// beside it. Checked on the 25 campaigns above (the point evaluated with the Jacobian): the
+/// decrease left there was 0.991 to 1.041 times the model's.
 pub const STATISTICAL_TOLERANCE: f64 = 1e-5;
 
 /// Predicted cost decrease of a step of the last run below which the point it reaches is
