@@ -72,14 +72,16 @@ pub(crate) fn minimize<E>(
     outcome
 }
 
-/// A point evaluated for its cost only, where a run ended (see [`minimize_to_tail`]).
+/// A point evaluated by the tail evaluation (its cost and `extra`, no Gauss-Newton matrix),
+/// where a run ended (see [`minimize_to_tail`]).
 pub(crate) struct TailPoint<E> {
     pub theta: DVector<f64>,
     pub cost: f64,
     pub extra: E,
 }
 
-/// The last point of [`minimize_to_tail`]: evaluated with the Jacobian, or for its cost only.
+/// The last point of [`minimize_to_tail`]: evaluated with the Jacobian, or by the tail
+/// evaluation.
 pub(crate) enum End<E> {
     Point(Point<E>),
     Tail(TailPoint<E>),
@@ -104,16 +106,17 @@ impl<E> End<E> {
     }
 }
 
-/// Like [`minimize`], for a run whose last point needs only its cost (and `extra`): a step
-/// whose quadratic model leaves at most the run's stop threshold of the decrease a full
-/// Gauss-Newton step would bring (`d - predicted` with `d` that decrease; the threshold is
-/// `cost_tolerance` times the cost or `decrease_tolerance`, whichever is larger, the one
-/// the run also stops at when `d` itself is below it) is evaluated by `eval_tail` alone,
-/// and the run ends at the point it reaches if the cost went down and the actual decrease
-/// matches the predicted one within the threshold (the model, which says what is left, is
-/// that accurate there; an actual decrease beyond the prediction says it is not either).
-/// Otherwise the point is evaluated again by `eval` (if the cost went down) and the run goes
-/// on as [`minimize`] would: only the `eval_tail` evaluation is lost.
+/// Like [`minimize`], for a run whose last point needs only its cost and `extra` (what
+/// `eval_tail` computes, cheaper than `eval`): a step whose quadratic model leaves at most the
+/// run's stop threshold of the decrease a full Gauss-Newton step would bring (`d - predicted`
+/// with `d` that decrease; the threshold is `cost_tolerance` times the cost or
+/// `decrease_tolerance`, whichever is larger, the one the run also stops at when `d` itself is
+/// below it) is evaluated by `eval_tail` alone, and the run ends at the point it reaches if the
+/// cost went down and the actual decrease matches the predicted one within the threshold (the
+/// model, which says what is left, is that accurate there; an actual decrease beyond the
+/// prediction says it is not either). Otherwise the point is evaluated again by `eval` (if the
+/// cost went down) and the run goes on as [`minimize`] would: only the `eval_tail` evaluation
+/// is lost.
 pub(crate) fn minimize_to_tail<E>(
     theta: DVector<f64>,
     start: Point<E>,
@@ -224,7 +227,7 @@ fn iterate<E, F: FnMut(&DVector<f64>) -> Option<(f64, E)>>(
                         });
                         break StopReason::Cost;
                     }
-                    // Better, but not close enough: the Jacobian there after all.
+                    // Better, but the model was not that accurate: the Jacobian there after all.
                     Some((cost, _)) if point.cost - cost > 0.0 => eval(&candidate, predicted),
                     _ => None,
                 }
