@@ -66,8 +66,98 @@ pub(crate) fn minimize<E>(
     start: Point<E>,
     settings: Settings,
     mu: f64,
-    mut eval: impl FnMut(&DVector<f64>, f64) -> Option<Point<E>>,
+    eval: impl FnMut(&DVector<f64>, f64) -> Option<Point<E>>,
 ) -> Outcome<E> {
+    let (outcome, _) = iterate(theta, start, settings, mu, eval, None::<NoTail<E>>);
+    outcome
+}
+
+/// A point evaluated by the tail evaluation (its cost and `extra`, no Gauss-Newton matrix),
+/// where a run ended (see [`minimize_to_tail`]).
+pub(crate) struct TailPoint<E> {
+    pub theta: DVector<f64>,
+    pub cost: f64,
+    pub extra: E,
+}
+
+/// The last point of [`minimize_to_tail`]: evaluated with the Jacobian, or by the tail
+/// evaluation.
+pub(crate) enum End<E> {
+    Point(Point<E>),
+    Tail(TailPoint<E>),
+}
+
+/// Result of [`minimize_to_tail`].
+pub(crate) struct TailOutcome<E> {
+    pub theta: DVector<f64>,
+    pub end: End<E>,
+    pub damping: f64,
+    pub iterations: usize,
+    pub stop: StopReason,
+}
+
+impl<E> End<E> {
+    /// The extra data of the last point.
+    pub(crate) fn extra(&self) -> &E {
+        match self {
+            End::Point(point) => &point.extra,
+            End::Tail(tail) => &tail.extra,
+        }
+    }
+}
+
+/// Like [`minimize`], for a run whose last point needs only its cost and `extra` (what
+/// `eval_tail` computes, cheaper than `eval`): a step whose quadratic model leaves at most the
+/// run's stop threshold of the decrease a full Gauss-Newton step would bring (`d - predicted`
+/// with `d` that decrease; the threshold is `cost_tolerance` times the cost or
+/// `decrease_tolerance`, whichever is larger, the one the run also stops at when `d` itself is
+/// below it) is evaluated by `eval_tail` alone, and the run ends at the point it reaches if the
+/// cost went down and the actual decrease matches the predicted one within the threshold (the
+/// model, which says what is left, is that accurate there; an actual decrease beyond the
+/// prediction says it is not either). Otherwise the point is evaluated again by `eval` (if the
+/// cost went down) and the run goes on as [`minimize`] would: only the `eval_tail` evaluation
+/// is lost.
+pub(crate) fn minimize_to_tail<E>(
+    theta: DVector<f64>,
+    start: Point<E>,
+    settings: Settings,
+    mu: f64,
+    eval: impl FnMut(&DVector<f64>, f64) -> Option<Point<E>>,
+    eval_tail: impl FnMut(&DVector<f64>) -> Option<(f64, E)>,
+) -> TailOutcome<E> {
+    let (outcome, tail) = iterate(theta, start, settings, mu, eval, Some(eval_tail));
+    match tail {
+        Some(tail) => TailOutcome {
+            theta: tail.theta.clone(),
+            end: End::Tail(tail),
+            damping: outcome.damping,
+            iterations: outcome.iterations,
+            stop: outcome.stop,
+        },
+        None => TailOutcome {
+            theta: outcome.theta,
+            end: End::Point(outcome.point),
+            damping: outcome.damping,
+            iterations: outcome.iterations,
+            stop: outcome.stop,
+        },
+    }
+}
+
+/// The tail evaluation of [`minimize`], which never takes a tail step.
+type NoTail<E> = fn(&DVector<f64>) -> Option<(f64, E)>;
+
+/// The Levenberg–Marquardt loop. With `eval_tail`, the run may end at a point evaluated by
+/// it: that point is returned beside the outcome, whose `theta` and `point` are then the
+/// last point with the Jacobian (the `damping`, `iterations` and `stop` are the run's).
+fn iterate<E, F: FnMut(&DVector<f64>) -> Option<(f64, E)>>(
+    theta: DVector<f64>,
+    start: Point<E>,
+    settings: Settings,
+    mu: f64,
+    mut eval: impl FnMut(&DVector<f64>, f64) -> Option<Point<E>>,
+    mut eval_tail: Option<F>,
+) -> (Outcome<E>, Option<TailPoint<E>>) {
     let p = theta.len();
     let mut theta = theta;
     let mut point = start;
@@ -78,6 +168,7 @@ pub(crate) fn minimize<E>(
     let mut mu = mu;
     let mut nu = 2.0;
     let mut iterations = 0;
+    let mut ended = None;
     let stop = loop {
         if gradient_cosine(&point.fisher, &point.gradient, point.cost)
             <= settings.gradient_tolerance
@@ -96,10 +187,9 @@ pub(crate) fn minimize<E>(
         for i in 0..p {
             gn[(i, i)] += GAUSS_NEWTON_REGULARIZATION;
         }
-        if let Some(chol) = gn.cholesky()
-            && gs.dot(&chol.solve(&gs))
-                <= (settings.cost_tolerance * point.cost).max(settings.decrease_tolerance)
-        {
+        let full_decrease = gn.cholesky().map(|chol| gs.dot(&chol.solve(&gs)));
+        let threshold = (settings.cost_tolerance * point.cost).max(settings.decrease_tolerance);
+        if full_decrease.is_some_and(|d| d <= threshold) {
             break StopReason::Cost;
         }
         let mut lhs = fs.clone();
@@ -121,7 +211,30 @@ pub(crate) fn minimize<E>(
         let small_step =
             ds.norm() <= settings.step_tolerance * (theta_norm + settings.step_tolerance);
         let candidate = &theta + &delta;
-        let trial = eval(&candidate, predicted).filter(|t| t.cost.is_finite());
+        let trial = match (&mut eval_tail, full_decrease) {
+            (Some(eval_tail), Some(d)) if predicted > 0.0 && d - predicted <= threshold => {
+                match eval_tail(&candidate).filter(|(cost, _)| cost.is_finite()) {
+                    Some((cost, extra))
+                        if point.cost - cost > 0.0
+                            && (point.cost - cost - predicted).abs() <= threshold =>
+                    {
+                        let rho = (point.cost - cost) / predicted;
+                        mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+                        ended = Some(TailPoint {
+                            theta: candidate,
+                            cost,
+                            extra,
+                        });
+                        break StopReason::Cost;
+                    }
+                    // Better, but the model was not that accurate: the Jacobian there after all.
+                    Some((cost, _)) if point.cost - cost > 0.0 => eval(&candidate, predicted),
+                    _ => None,
+                }
+            }
+            _ => eval(&candidate, predicted),
+        }
+        .filter(|t| t.cost.is_finite());
         let actual = trial.as_ref().map(|t| point.cost - t.cost);
         match (trial, actual) {
             (Some(trial), Some(actual)) if actual > 0.0 && predicted > 0.0 => {
@@ -154,11 +267,14 @@ pub(crate) fn minimize<E>(
             }
         }
     };
-    Outcome {
-        theta,
-        point,
-        damping: mu,
-        iterations,
-        stop,
-    }
+    (
+        Outcome {
+            theta,
+            point,
+            damping: mu,
+            iterations,
+            stop,
+        },
+        ended,
+    )
 }
