@@ -373,9 +373,7 @@ fn frequency_response(model: &Model, padded: usize) -> Vec<C64> {
     let b2 = model.b2.as_slice();
     let pairs = n * r;
     let bins = padded / 2 + 1;
-    let mut out = Vec::with_capacity(bins * pairs);
-    let mut q = vec![C64::new(0.0, 0.0); n * n];
-    let mut h = vec![C64::new(0.0, 0.0); pairs];
+    let mut out = vec![C64::new(0.0, 0.0); bins * pairs];
     // The solve with the size as a constant (the common small frames), so that its loops
     // unroll: the same operations in the same order as for any size.
     let solve = |q: &mut [C64], h: &mut [C64]| match (n, r) {
@@ -384,18 +382,27 @@ fn frequency_response(model: &Model, padded: usize) -> Vec<C64> {
         (4, 1) => super::dense::solve(q, 4, h, 1),
         _ => super::dense::solve(q, n, h, r),
     };
-    for k in 0..bins {
-        let omega = 2.0 * PI * k as f64 / (padded as f64 * model.dt);
-        for (((v, &kv), &mv), &dv) in q.iter_mut().zip(k_n).zip(m_n).zip(d_n) {
-            *v = C64::new(kv - omega * omega * mv, omega * dv);
-        }
-        h.copy_from_slice(b2);
-        if solve(&mut q, &mut h) {
-            out.extend(h.iter().map(|v| v * (-omega * omega)));
-        } else {
-            out.extend(std::iter::repeat_n(C64::new(0.0, 0.0), pairs));
-        }
-    }
+    // Bins in parallel, in chunks of `CHUNK` (each bin's numbers are its own).
+    const CHUNK: usize = 1024;
+    out.par_chunks_mut(CHUNK * pairs)
+        .enumerate()
+        .for_each(|(c, chunk)| {
+            let mut q = vec![C64::new(0.0, 0.0); n * n];
+            let mut h = vec![C64::new(0.0, 0.0); pairs];
+            for (j, dst) in chunk.chunks_exact_mut(pairs).enumerate() {
+                let k = c * CHUNK + j;
+                let omega = 2.0 * PI * k as f64 / (padded as f64 * model.dt);
+                for (((v, &kv), &mv), &dv) in q.iter_mut().zip(k_n).zip(m_n).zip(d_n) {
+                    *v = C64::new(kv - omega * omega * mv, omega * dv);
+                }
+                h.copy_from_slice(b2);
+                if solve(&mut q, &mut h) {
+                    for (d, v) in dst.iter_mut().zip(&h) {
+                        *d = v * (-omega * omega);
+                    }
+                }
+            }
+        });
     // The band-limited response is real at Nyquist.
     for v in &mut out[(bins - 1) * pairs..] {
         v.im = 0.0;
