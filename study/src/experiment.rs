@@ -7,6 +7,7 @@ use ident::frf::estimate::FrfParams;
 use ident::refine::{Refinement, Refiner, SecondOrder};
 use ident::{Identification, Identifier, RefineError};
 use nalgebra::DMatrix;
+use rayon::prelude::*;
 use sim::{Campaign, ModalProperties, Model, NoiseSettings, Simulator};
 
 use crate::score::{Quantity, ScoreKey};
@@ -207,9 +208,10 @@ pub fn cramer_rao_bound(
     // shaker's signal. (The hammer path stays the one the bound always
     // used: without channel errors, which bias but do not inform.)
     let hits: Vec<Vec<Vec<f64>>> = if simulator.settings().excitation.is_hammer() {
+        // Hits in parallel (each response is its own numbers).
         simulator
             .draw_pulses(seed)
-            .iter()
+            .par_iter()
             .map(|p| simulator.clean_response(p))
             .collect()
     } else {
