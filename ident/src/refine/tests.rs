@@ -639,6 +639,15 @@ fn modal_gradients_match_central_differences() {
     }
 }
 
+/// Runs `f` on this thread with the likelihood's per-bin cache limited to `limit` bytes (0:
+/// every group recomputes its model in the Jacobian pass), then restores the previous limit.
+fn with_cache_limit<T>(limit: usize, f: impl FnOnce() -> T) -> T {
+    let previous = likelihood::CACHE_LIMIT.with(|c| c.replace(limit));
+    let out = f();
+    likelihood::CACHE_LIMIT.with(|c| c.set(previous));
+    out
+}
+
 /// A group too large for the per-bin cache recomputes the model in the Jacobian pass: the
 /// same refinement, bit for bit (held and band-limited, noisy force).
 #[test]
@@ -651,10 +660,7 @@ fn recomputed_bins_give_the_same_refinement() {
     for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
         let refiner = Refiner::default().intersample(intersample);
         let run = |limit: usize| {
-            likelihood::CACHE_LIMIT.with(|c| c.set(limit));
-            let out = refiner.refine(&records, DT, &initial);
-            likelihood::CACHE_LIMIT.with(|c| c.set(usize::MAX));
-            out.unwrap()
+            with_cache_limit(limit, || refiner.refine(&records, DT, &initial).unwrap())
         };
         let cached = run(usize::MAX);
         let recomputed = run(0);
@@ -695,12 +701,11 @@ fn likelihood_is_the_same_for_any_thread_count() {
                     .unwrap();
                 // The limit is per thread: set where the evaluation starts.
                 let ev = pool.install(|| {
-                    likelihood::CACHE_LIMIT.with(|c| c.set(limit));
-                    let ev = problem
-                        .evaluate(&theta, &noise, Want::JacobianAndFisher, true)
-                        .unwrap();
-                    likelihood::CACHE_LIMIT.with(|c| c.set(usize::MAX));
-                    ev
+                    with_cache_limit(limit, || {
+                        problem
+                            .evaluate(&theta, &noise, Want::JacobianAndFisher, true)
+                            .unwrap()
+                    })
                 });
                 // `Debug` prints every number in its shortest round-trip form: equal text
                 // is equal bits.
