@@ -451,11 +451,7 @@ fn read_records(
     py.detach(|| {
         guard(|| {
             let opts = ReadOptions { fs_hz: fs };
-            let files: Vec<RecordFile> = paths
-                .iter()
-                .map(|f| records::read_record(f, &opts))
-                .collect::<Result<_, _>>()
-                .map_err(lib_error)?;
+            let files: Vec<RecordFile> = records::read_records(&paths, &opts).map_err(lib_error)?;
             let inner = records::select(&files, &inputs, outputs.as_deref()).map_err(lib_error)?;
             Ok(Campaign {
                 inner,

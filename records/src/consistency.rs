@@ -318,8 +318,9 @@ impl Consistency {
     }
 }
 
-/// Names the place of a sample in its file, for messages.
-pub trait Locate {
+/// Names the place of a sample in its file, for messages (shared by the threads of an
+/// analysis).
+pub trait Locate: Sync {
     /// Where sample `sample` (0-based) of channel `channel` of record
     /// `record` is, e.g. `line 512` or `sample #513`.
     fn sample(&self, record: usize, channel: &str, sample: usize) -> String;

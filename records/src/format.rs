@@ -8,6 +8,7 @@
 //! to [`FORMATS`] before the CSV fallback, and give it a [`Format`] variant
 //! (see CONTRIBUTING.md).
 
+use rayon::prelude::*;
 use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
@@ -294,16 +295,27 @@ pub const CAMPAIGN_DT_REL_TOL: f64 = 1e-5;
 /// that they have the same sampling interval; the error names the first file
 /// and the one that differs. Records may differ in length (runs of a shaker
 /// test often do): everything downstream takes records of any lengths.
-pub fn read_campaign<P: AsRef<Path>>(
+pub fn read_campaign<P: AsRef<Path> + Sync>(
     paths: &[P],
     opts: &ReadOptions,
 ) -> Result<Vec<RecordFile>, RecordError> {
-    let records = paths
-        .iter()
-        .map(|p| read_record(p.as_ref(), opts))
-        .collect::<Result<Vec<_>, _>>()?;
+    let records = read_records(paths, opts)?;
     check_campaign(&records)?;
     Ok(records)
+}
+
+/// Reads several record files ([`read_record`] each), in parallel. The records are in the
+/// order of `paths`; when files fail, the error is the first failing file's in that order
+/// (whatever the number of threads).
+pub fn read_records<P: AsRef<Path> + Sync>(
+    paths: &[P],
+    opts: &ReadOptions,
+) -> Result<Vec<RecordFile>, RecordError> {
+    let each: Vec<Result<RecordFile, RecordError>> = paths
+        .par_iter()
+        .map(|p| read_record(p.as_ref(), opts))
+        .collect();
+    each.into_iter().collect()
 }
 
 /// Checks that records have the same sampling interval (within

@@ -95,7 +95,7 @@ pub use crate::csv::{parse_csv, parse_csv_from};
 pub use crate::error::{CampaignMismatch, IoOp, Location, Problem, RecordError};
 pub use crate::format::{
     CAMPAIGN_DT_REL_TOL, Csv, FORMATS, FileFormat, MAX_FILE_BYTES, Uff58, check_campaign, detect,
-    parse_record, read_campaign, read_record, write_csv, write_record, write_uff58,
+    parse_record, read_campaign, read_record, read_records, write_csv, write_record, write_uff58,
 };
 pub use crate::frf::{
     AssembleOptions, ContentKind, FrfFile, FrfFormat, FrfPair, FrfPoint, FrfReadOptions, FrfSet,

@@ -4,7 +4,8 @@ use std::path::{Path, PathBuf};
 
 use records::{
     CampaignMismatch, Channel, ChannelSpec, Format, IoOp, ReadOptions, RecordError, RecordFile,
-    Uff58Encoding, check_campaign, read_campaign, read_record, write_csv, write_uff58,
+    Uff58Encoding, check_campaign, read_campaign, read_record, read_records, write_csv,
+    write_uff58,
 };
 
 fn record(n: usize, dt: f64) -> RecordFile {
@@ -60,6 +61,38 @@ fn campaign_of_matching_records() {
     assert_eq!(recs.len(), 3);
     assert_eq!(recs[1].format, Format::Uff58Ascii);
     assert_eq!(recs[2].format, Format::Uff58Binary);
+}
+
+#[test]
+fn records_are_read_in_order_and_the_first_failing_file_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut paths: Vec<PathBuf> = (0..12)
+        .map(|k| write(dir.path(), &format!("hit{k:02}.csv"), &record(50 + k, 1e-3)))
+        .collect();
+    let opts = ReadOptions::default();
+    let recs = read_records(&paths, &opts).unwrap();
+    // Read in parallel, returned in the order given.
+    let lens: Vec<usize> = recs.iter().map(|r| r.len()).collect();
+    assert_eq!(lens, (50..62).collect::<Vec<_>>());
+    assert!(recs.iter().zip(&paths).all(|(r, p)| &r.path == p));
+    // Two missing files: the error names the first in the list, whatever
+    // the threads finish first, as a sequential read would.
+    paths[9] = dir.path().join("missing-b.csv");
+    paths[4] = dir.path().join("missing-a.csv");
+    for threads in [1, 4] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let e = pool.install(|| read_records(&paths, &opts)).unwrap_err();
+        let sequential = paths
+            .iter()
+            .map(|p| read_record(p, &opts))
+            .collect::<Result<Vec<_>, _>>()
+            .unwrap_err();
+        assert_eq!(e.to_string(), sequential.to_string());
+        assert!(e.to_string().contains("missing-a.csv"), "{e}");
+    }
 }
 
 #[test]

@@ -226,10 +226,7 @@ pub(crate) fn load_campaign(
         bail!("--fs: must be a positive sampling rate in Hz, got {fs}");
     }
     let opts = ReadOptions { fs_hz: select.fs };
-    let files: Vec<RecordFile> = paths
-        .iter()
-        .map(|f| records::read_record(f, &opts))
-        .collect::<Result<_, _>>()?;
+    let files: Vec<RecordFile> = records::read_records(paths, &opts)?;
     let inputs = parse_specs("--input", &select.input)?;
     let outputs = select
         .outputs

@@ -8,6 +8,7 @@
 use ident::refine::{Refinement, Refiner, SecondOrder};
 use ident::{Campaign, Identification, Identifier, Jackknife, ModelOrder, ObserverOrder};
 use nalgebra::DMatrix;
+use rayon::prelude::*;
 use records::consistency::{
     ByPosition, Consistency, ConsistencyFlag, ConsistencySettings, Inconsistency, Locate,
     check_consistency,
@@ -492,9 +493,23 @@ pub fn analyze_located(
     // joint model (the better half): a hit whose outputs do not follow it
     // is dropped (if such hits are a minority) and the rest identified
     // again, once.
+    //
+    // The error bars of the joint result are computed alongside (both use
+    // every thread): they are kept unless hits are dropped here, which is
+    // rare, and then computed again for the hits kept.
+    let jackknife_of = |c: &Campaign, result: &Identification| {
+        settings
+            .uncertainty
+            .then(|| ident::jackknife(id, c, result).map_err(|e| e.to_string()))
+    };
     let mut residual_notes = Vec::new();
+    let mut error_bars = None;
     if keep.len() >= settings.consistency.min_hits {
-        let flags = residual_flags(&c, &keep, &result, id, locate, &settings.consistency);
+        let (flags, bars) = rayon::join(
+            || residual_flags(&c, &keep, &result, id, locate, &settings.consistency),
+            || jackknife_of(&c, &result),
+        );
+        error_bars = Some(bars);
         let odd: Vec<usize> = {
             let mut v: Vec<usize> = flags.iter().map(|f| f.record).collect();
             v.dedup();
@@ -516,6 +531,7 @@ pub fn analyze_located(
                 result = id
                     .identify(&c.records, c.dt_s)
                     .map_err(|e| identification_error(e, &c, id))?;
+                error_bars = None;
             } else {
                 residual_notes.push(format!(
                     "the residuals of {} of {} hits stand out against the model of the others; as they are not a minority no hit is dropped (is the campaign a mix of set-ups?): {}",
@@ -531,14 +547,12 @@ pub fn analyze_located(
     if settings.screening == Screening::Strict {
         check_modes_against_outputs(&result, &c)?;
     }
-    let (uncertainty, uncertainty_skipped) = if settings.uncertainty {
-        match ident::jackknife(id, &c, &result) {
-            Ok(u) => (Some(u), None),
-            Err(e) => (None, Some(e.to_string())),
-        }
-    } else {
-        (None, Some("--no-uncertainty".to_string()))
-    };
+    let (uncertainty, uncertainty_skipped) =
+        match error_bars.unwrap_or_else(|| jackknife_of(&c, &result)) {
+            Some(Ok(u)) => (Some(u), None),
+            Some(Err(e)) => (None, Some(e)),
+            None => (None, Some("--no-uncertainty".to_string())),
+        };
     // Warnings: the quality checks first (every hit, dropped or not), the
     // consistency flags and notes, the hits dropped, then the
     // identification's with hits named by file.
@@ -733,8 +747,9 @@ struct Misfit {
 fn misfits(c: &Campaign, model: &Identification) -> Vec<Vec<Misfit>> {
     let median = records::consistency::median;
     let sign = if model.polarity_flipped { -1.0 } else { 1.0 };
+    // Hits in parallel, each its own numbers.
     c.records
-        .iter()
+        .par_iter()
         .map(|r| {
             let p = model.realization.simulate(&r.inputs);
             (0..c.outputs.len())
