@@ -271,8 +271,11 @@ impl EraParams {
     }
 
     /// [`EraParams::decompose`] for realizations of order `order` only: the factored matrix's
-    /// singular values are all computed, its singular vectors only to `order` when
-    /// [`linalg::leading_svd`] converges (all of them otherwise). The realization of that
+    /// singular vectors only to `order` when [`linalg::leading_svd`] converges (all of them
+    /// otherwise). Its singular values: ERA's (`H(0)`, the Hankel singular values) all;
+    /// ERA/DC's correlation Hankel matrix's the first `order + 8` when
+    /// [`linalg::leading_svd_certified`] certifies the leading ones (the `H(0)` values
+    /// behind the gaps are all computed either way). The realization of that
     /// order agrees with [`EraParams::decompose`]'s to the vectors' accuracy (in the tests
     /// poles within 2e-12, Markov parameters within 1.1e-14 relative); realizations of higher
     /// orders may then be refused ([`EraError::OrderTooLarge`]). For resamples at a known
@@ -293,15 +296,24 @@ impl EraParams {
         vectors: Option<usize>,
     ) -> Result<Decomposition, EraError> {
         // The SVD of a factored matrix: thin, or with only the leading vectors asked for.
-        let factor = |mat: &DMatrix<f64>| -> Result<ThinSvd, EraError> {
+        // The correlation Hankel matrix's values past the order are not used (its
+        // `Decomposition` keeps those of `H(0)` for the gaps), so there the leading
+        // triplets come certified without the values-only SVD.
+        let factor_with = |mat: &DMatrix<f64>, all_values: bool| -> Result<ThinSvd, EraError> {
             let full = mat.nrows().min(mat.ncols());
-            if let Some(k) = vectors.filter(|&k| k <= full)
-                && let Some(svd) = linalg::leading_svd(mat, k)?
-            {
-                return Ok(svd);
+            if let Some(k) = vectors.filter(|&k| k <= full) {
+                let lead = if all_values {
+                    linalg::leading_svd(mat, k)?
+                } else {
+                    linalg::leading_svd_certified(mat, k)?
+                };
+                if let Some(svd) = lead {
+                    return Ok(svd);
+                }
             }
             Ok(linalg::thin_svd(mat)?)
         };
+        let factor = |mat: &DMatrix<f64>| factor_with(mat, false);
         let y0 = markov.first().ok_or(EraError::TooFewMarkov {
             available: 0,
             required: 1,
@@ -379,7 +391,7 @@ impl EraParams {
             };
             (h0_svd.s, factored, block(1))
         } else {
-            let svd = factor(&h0)?;
+            let svd = factor_with(&h0, true)?;
             (svd.s.clone(), svd, hankel(1))
         };
         Ok(Decomposition {

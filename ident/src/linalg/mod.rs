@@ -869,17 +869,90 @@ pub fn leading_svd(m: &DMatrix<f64>, k: usize) -> Result<Option<ThinSvd>, Linalg
     } else {
         singular_values(m)?
     };
+    let s0 = values.get(0).copied().unwrap_or(0.0);
+    let tol = leading_tolerance(m, s0);
+    let converged = |small: &ThinSvd, residual: &DMatrix<f64>| {
+        (0..k).all(|i| residual.column(i).norm() <= tol && (small.s[i] - values[i]).abs() <= tol)
+    };
+    Ok(subspace_iteration(m, k, s0, &converged)?.map(|svd| ThinSvd { s: values, ..svd }))
+}
+
+/// The residual bound of [`leading_svd`] and [`leading_svd_certified`]:
+/// `64 eps sqrt(max(rows, cols)) s_1`, of the order of a full SVD's residual.
+fn leading_tolerance(m: &DMatrix<f64>, s1: f64) -> f64 {
+    let (rows, cols) = m.shape();
+    64.0 * f64::EPSILON * (rows.max(cols) as f64).sqrt() * s1
+}
+
+/// [`leading_svd`] without the values-only SVD: the leading `k` singular triplets of `m`,
+/// certified from the block iteration itself, and `k + 8` values (the first `k` those
+/// singular values, the rest the block's Ritz values, lower bounds of the next ones).
+///
+/// The certificate: every leading Ritz pair has `|m v_i - s_i u_i| <= tol` (and
+/// `m^T u_i = s_i v_i` by construction), so `k` singular values of `m` lie within
+/// `sqrt(k) tol` of the Ritz values `s_1 >= ... >= s_k` (Kahan's residual bound for the
+/// symmetric matrix `[0 m; m^T 0]`); and `s_(k+1)(m) <= |m - U_k U_k^T m|_F =
+/// sqrt(|m|_F^2 - sum_i s_i^2)`, the energy left outside the Ritz vectors. When that energy
+/// is below `s_k - sqrt(k) tol`, the `k` singular values found are the `k` largest, each
+/// within `sqrt(k) tol` of its Ritz value. Otherwise (a weak `k`-th direction under a heavy
+/// tail) it falls back to [`leading_svd`], and it returns `Ok(None)` where that does.
+/// For ERA/DC's correlation Hankel matrices (a few structural directions over a noise tail
+/// thousands of times weaker) the certificate holds after the first iteration.
+pub fn leading_svd_certified(m: &DMatrix<f64>, k: usize) -> Result<Option<ThinSvd>, LinalgError> {
+    ensure_finite(m, "matrix")?;
+    let fro2 = m.norm_squared();
+    // An estimate of `s_1` for the tolerance (the largest column norm is within a factor
+    // `sqrt(cols)` of it; the certificate below uses the Ritz value, a lower bound).
+    let col_max = m.column_iter().map(|c| c.norm()).fold(0.0, f64::max);
+    let certified = std::cell::Cell::new(false);
+    let converged = |small: &ThinSvd, residual: &DMatrix<f64>| {
+        let s1 = small.s[0].max(col_max);
+        let tol = leading_tolerance(m, s1);
+        if !(0..k).all(|i| residual.column(i).norm() <= tol) {
+            return false;
+        }
+        let captured: f64 = small.s.iter().take(k).map(|s| s * s).sum();
+        // `|m|_F^2 - sum s_i^2` loses about `eps |m|_F^2` to round-off (each term once):
+        // a margin of 4 k eps |m|_F^2 covers it.
+        let energy =
+            ((fro2 - captured).max(0.0) + 4.0 * (k + 1) as f64 * f64::EPSILON * fro2).sqrt();
+        let ok = energy < small.s[k - 1] - (k as f64).sqrt() * tol;
+        certified.set(ok);
+        // Converged either way: without the certificate the values-only SVD decides.
+        true
+    };
+    if k == 0 || 2 * (k + LEADING_OVERSAMPLE) > m.nrows().min(m.ncols()) || fro2 <= 0.0 {
+        // What `leading_svd` returns, without its values-only SVD.
+        return Ok(None);
+    }
+    match subspace_iteration(m, k, fro2.sqrt(), &converged)? {
+        Some(svd) if certified.get() => Ok(Some(svd)),
+        _ => leading_svd(m, k),
+    }
+}
+
+/// The block subspace iteration of [`leading_svd`] and [`leading_svd_certified`]: the
+/// leading `k` left and right Ritz vectors (`u`, `v`) and the block's `k + 8` Ritz values
+/// (`s`) once `converged(small, residual)` says so (`residual` holds `m v_i - s_i u_i`,
+/// `i < k`).
+/// `None` when `k` is 0, the block is more than half of `min(rows, cols)`, `scale` (a
+/// norm of `m`) is 0, or after [`LEADING_MAX_ITERATIONS`].
+fn subspace_iteration(
+    m: &DMatrix<f64>,
+    k: usize,
+    scale: f64,
+    converged: &dyn Fn(&ThinSvd, &DMatrix<f64>) -> bool,
+) -> Result<Option<ThinSvd>, LinalgError> {
+    let (rows, cols) = m.shape();
     let full = rows.min(cols);
     assert!(
         k <= full,
         "leading_svd: {k} vectors of a {rows} x {cols} matrix"
     );
     let block = k + LEADING_OVERSAMPLE;
-    let s0 = values.get(0).copied().unwrap_or(0.0);
-    if k == 0 || 2 * block > full || s0 <= 0.0 {
+    if k == 0 || 2 * block > full || scale <= 0.0 {
         return Ok(None);
     }
-    let tol = 64.0 * f64::EPSILON * (rows.max(cols) as f64).sqrt() * s0;
     // Start: the directions of the rows of largest norm (ties by index: deterministic).
     let mut norms: Vec<(usize, f64)> = (0..rows).map(|i| (i, m.row(i).norm_squared())).collect();
     norms.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
@@ -896,10 +969,8 @@ pub fn leading_svd(m: &DMatrix<f64>, k: usize) -> Result<Option<ThinSvd>, Linalg
         let u = &p * small.v.columns(0, k);
         let v = small.u.columns(0, k).into_owned();
         let residual = m * &v - &u * DMatrix::from_diagonal(&small.s.rows(0, k));
-        let converged = (0..k)
-            .all(|i| residual.column(i).norm() <= tol && (small.s[i] - values[i]).abs() <= tol);
-        if converged {
-            return Ok(Some(ThinSvd { u, s: values, v }));
+        if converged(&small, &residual) {
+            return Ok(Some(ThinSvd { u, s: small.s, v }));
         }
         q = small.u;
     }

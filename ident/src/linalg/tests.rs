@@ -323,3 +323,79 @@ fn leading_svd_without_a_gap_gives_up() {
     let m = &q * DMatrix::from_diagonal(&s) * q.transpose();
     assert!(leading_svd(&m, 2).unwrap().is_none());
 }
+
+#[test]
+fn certified_leading_svd_matches_the_full_svd_without_the_values() {
+    // The ERA-like spectrum of `leading_svd_matches_the_full_svd_on_an_era_like_spectrum`:
+    // three close pairs over a noise floor. The certificate holds (the energy past the
+    // k-th value is at most 0.15 of it: 14.2 against 99.99 for k = 2); values within sqrt(k) tol = sqrt(6) 64 eps sqrt(90) 100 (4e-11)
+    // of the SVD's (measured: within 1.0e-15 of s_1 = 100), vectors up to sign as in that test.
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let (rows, cols) = (90, 84);
+    let orth = |rng: &mut ChaCha8Rng, n: usize| {
+        let g = DMatrix::from_fn(n, n, |_, _| rng.random::<f64>() - 0.5);
+        thin_qr(&g).0
+    };
+    let (u, v) = (orth(&mut rng, rows), orth(&mut rng, cols));
+    let mut s = vec![100.0, 99.99, 10.0, 9.999, 1.0, 0.9999];
+    s.extend((0..cols - 6).map(|i| 1e-2 * 0.95f64.powi(i as i32)));
+    let m =
+        u.columns(0, cols) * DMatrix::from_diagonal(&DVector::from_vec(s.clone())) * v.transpose();
+    let full = thin_svd(&m).unwrap();
+    for k in [2, 4, 6] {
+        let lead = leading_svd_certified(&m, k).unwrap().expect("certified");
+        // The block's values only (the full list would mean the fallback ran).
+        assert_eq!(lead.s.len(), k + LEADING_OVERSAMPLE);
+        let tol = (k as f64).sqrt() * 64.0 * f64::EPSILON * (rows as f64).sqrt() * s[0];
+        for i in 0..k {
+            assert!((lead.s[i] - full.s[i]).abs() <= tol, "{k} {i}");
+            let sign = lead.u.column(i).dot(&full.u.column(i)).signum();
+            let du = (lead.u.column(i) * sign - full.u.column(i)).norm();
+            let dv = (lead.v.column(i) * sign - full.v.column(i)).norm();
+            assert!(du < 1e-8 && dv < 1e-8, "k {k} vector {i}: {du:e} {dv:e}");
+        }
+        // Past `k`, Ritz values: lower bounds of the singular values (up to round-off).
+        for i in k..lead.s.len() {
+            assert!(lead.s[i] <= full.s[i] * (1.0 + 1e-12), "{k} {i}");
+        }
+    }
+    // A heavy tail: two pairs (100, 10) over 80 values of 2.0. The gap after the fourth
+    // value (a factor 5) lets the iteration converge, but the tail's energy (sqrt(80) 2 =
+    // 17.9) exceeds the fourth value: no certificate, and the result is `leading_svd`'s,
+    // all values included.
+    let mut heavy = vec![100.0, 99.99, 10.0, 9.999];
+    heavy.extend(std::iter::repeat_n(2.0, cols - 4));
+    let m2 = u.columns(0, cols) * DMatrix::from_diagonal(&DVector::from_vec(heavy)) * v.transpose();
+    let a = leading_svd_certified(&m2, 4).unwrap().expect("converges");
+    let b = leading_svd(&m2, 4).unwrap().expect("converges");
+    assert_eq!(a.s.len(), cols);
+    assert_eq!((a.s, a.u, a.v), (b.s, b.u, b.v));
+}
+
+#[test]
+fn certified_leading_svd_does_not_accept_a_missed_direction() {
+    // The start block (the rows of largest norm) spans exactly the right singular vectors
+    // of values 0.5 .. 0.41 (one row each), and the largest singular value (1.0) lives on
+    // 40 other rows of norm 1/sqrt(40) = 0.16 each, orthogonal to the block: the iteration
+    // converges at once to accurate triplets that are not the leading ones. The energy
+    // left outside (at least 1.0) exceeds the Ritz values, so the certificate refuses; the
+    // fallback (`leading_svd`, whose Ritz values never meet the true values) gives up and
+    // the caller would take the full SVD.
+    let (rows, cols) = (60, 60);
+    let mut m = DMatrix::zeros(rows, cols);
+    for j in 0..10 {
+        m[(j, j)] = 0.5 - 0.01 * j as f64;
+    }
+    for i in 10..50 {
+        m[(i, 59)] = 1.0 / 40f64.sqrt();
+    }
+    for j in 10..19 {
+        m[(j + 40, j)] = 0.01;
+    }
+    let top = thin_svd(&m).unwrap().s[0];
+    assert!((top - 1.0).abs() < 1e-12);
+    match leading_svd_certified(&m, 2).unwrap() {
+        None => {}
+        Some(svd) => assert!((svd.s[0] - top).abs() < 1e-10, "{}", svd.s[0]),
+    }
+}
