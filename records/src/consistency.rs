@@ -39,6 +39,7 @@
 use std::fmt;
 
 use ident::Campaign;
+use rayon::prelude::*;
 use rustfft::FftPlanner;
 use rustfft::num_complex::Complex;
 use serde::Serialize;
@@ -473,6 +474,21 @@ pub fn check_consistency(
 
     // Spikes in outputs (inputs: see the level check, which tells a spike
     // from a hit by comparing with the other hits).
+    // The search per hit in parallel (each hit's numbers are its own), the flags in order.
+    let spikes: Vec<Vec<Option<Spike>>> = (0..hits)
+        .into_par_iter()
+        .map(|k| {
+            data[k]
+                .iter()
+                .enumerate()
+                .map(|(j, s)| {
+                    (!s.input && usable(k, j))
+                        .then(|| spike(&s.values, settings.spike_factor))
+                        .flatten()
+                })
+                .collect()
+        })
+        .collect();
     let mut spiked = vec![vec![false; channels]; hits];
     for k in 0..hits {
         let hit_at: Vec<usize> = data[k]
@@ -482,10 +498,7 @@ pub fn check_consistency(
             .map(|(_, s)| argmax_abs(&s.values, mean(&s.values)).0)
             .collect();
         for (j, s) in data[k].iter().enumerate() {
-            if s.input || !usable(k, j) {
-                continue;
-            }
-            if let Some(sp) = spike(&s.values, settings.spike_factor)
+            if let Some(sp) = &spikes[k][j]
                 && !hit_at.iter().any(|&h| h.abs_diff(sp.sample) <= SPIKE_GUARD)
             {
                 spiked[k][j] = true;
@@ -739,13 +752,14 @@ pub fn check_consistency(
 
     // Spectra: share of each channel's energy per octave band.
     let bands = settings.spectrum_bands;
-    let mut planner = FftPlanner::<f64>::new();
+    // Hits in parallel, each with its own numbers (a planner per job: the same transforms).
     let shares: Vec<Vec<Option<Vec<f64>>>> = (0..hits)
-        .map(|k| {
+        .into_par_iter()
+        .map_init(FftPlanner::<f64>::new, |planner, k| {
             (0..channels)
                 .map(|j| {
                     (usable(k, j) && !spiked[k][j])
-                        .then(|| band_shares(&data[k][j].values, bands, &mut planner))
+                        .then(|| band_shares(&data[k][j].values, bands, planner))
                         .flatten()
                 })
                 .collect()
@@ -1180,6 +1194,29 @@ mod tests {
             "{}",
             r.flags[0]
         );
+    }
+
+    #[test]
+    fn flags_are_the_same_for_any_thread_count() {
+        // Spikes, a quiet channel and a hum in different hits: the per-hit searches run in
+        // parallel, the flags are written in hit order, the same on 1 and 3 threads.
+        let mut c = campaign(8);
+        c.records[5].outputs[(0, 700)] = 1e30;
+        c.records[3].inputs[(0, 500)] = 1e12;
+        for i in 0..c.records[1].len() {
+            c.records[1].outputs[(0, i)] *= 1e-3;
+            c.records[6].outputs[(1, i)] += 0.3 * (i as f64 * 0.61).sin();
+        }
+        let on = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| format!("{:?}", check(&c)))
+        };
+        let one = on(1);
+        assert!(one.contains("Spike") && one.contains("Level"), "{one}");
+        assert_eq!(one, on(3));
     }
 
     #[test]
