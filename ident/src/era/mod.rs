@@ -267,7 +267,7 @@ impl EraParams {
     /// Factors the Hankel matrices of `markov` (`Y_0 = D, Y_1, ...`), without choosing the
     /// order yet.
     pub fn decompose(&self, markov: &[DMatrix<f64>], dt_s: f64) -> Result<Decomposition, EraError> {
-        self.decompose_vectors(markov, dt_s, None)
+        self.decompose_vectors(markov, dt_s, None, None)
     }
 
     /// [`EraParams::decompose`] for realizations of order `order` only: the factored matrix's
@@ -286,7 +286,23 @@ impl EraParams {
         dt_s: f64,
         order: usize,
     ) -> Result<Decomposition, EraError> {
-        self.decompose_vectors(markov, dt_s, Some(order))
+        self.decompose_vectors(markov, dt_s, Some(order), None)
+    }
+
+    /// [`EraParams::decompose_to_order`] for the Markov parameters of an OKID observer of
+    /// `states` states (observer order times outputs): their correlation Hankel matrix
+    /// generically has rank `states`, so when `H(0)` has a lower rank the compression to
+    /// `H(0)`'s row space (see `compressed_svd_of`) cannot succeed and is not tried. (The
+    /// three-storey campaigns' jackknife resamples: `H(0)` of rank 42, 60 states; the
+    /// attempt cost about a quarter of their ERA.)
+    pub(crate) fn decompose_observer_to_order(
+        &self,
+        markov: &[DMatrix<f64>],
+        dt_s: f64,
+        order: usize,
+        states: usize,
+    ) -> Result<Decomposition, EraError> {
+        self.decompose_vectors(markov, dt_s, Some(order), Some(states))
     }
 
     fn decompose_vectors(
@@ -294,6 +310,7 @@ impl EraParams {
         markov: &[DMatrix<f64>],
         dt_s: f64,
         vectors: Option<usize>,
+        states: Option<usize>,
     ) -> Result<Decomposition, EraError> {
         // The SVD of a factored matrix: thin, or with only the leading vectors asked for.
         // The correlation Hankel matrix's values past the order are not used (its
@@ -385,7 +402,7 @@ impl EraParams {
                 }
                 out
             };
-            let factored = match compressed_svd_of(stacked_v, &h0_svd, &big0, &factor)? {
+            let factored = match compressed_svd_of(stacked_v, &h0_svd, &big0, &factor, states)? {
                 Some(svd) => svd,
                 None => factor(&big0)?,
             };
@@ -534,16 +551,22 @@ const COMPRESSION_TOLERANCE: f64 = 1e-12;
 /// orthonormal basis `Q_L` (`N` columns) of that span, `big0 = Q_L T` with the short
 /// `T = Q_L^T big0` (`N` rows), and the SVD `T = U S V^T` gives that of `big0`,
 /// `(Q_L U) S V^T` (singular values past `N` are zero). `None` if the residual outside that
-/// span exceeds [`COMPRESSION_TOLERANCE`] (then the caller factors `big0` itself).
+/// span exceeds [`COMPRESSION_TOLERANCE`] (then the caller factors `big0` itself), or
+/// without trying when `H(0)`'s rank is below the `states` of the system behind the Markov
+/// parameters (given: an OKID observer's).
 fn compressed_svd_of(
     stacked_v: impl Fn(&DMatrix<f64>) -> DMatrix<f64>,
     h0_svd: &linalg::RightSvd,
     big0: &DMatrix<f64>,
     factor: &dyn Fn(&DMatrix<f64>) -> Result<ThinSvd, EraError>,
+    states: Option<usize>,
 ) -> Result<Option<ThinSvd>, EraError> {
     let (rows, cols) = h0_svd.shape();
     let tol = f64::EPSILON * rows.max(cols) as f64;
     let rank = h0_svd.rank(tol);
+    if states.is_some_and(|n| rank < n) {
+        return Ok(None);
+    }
     compress(stacked_v, rank, &|k| h0_svd.v_columns(k), big0, factor)
 }
 

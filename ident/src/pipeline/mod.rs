@@ -621,9 +621,12 @@ impl ValidIdentifier {
         // Resamples (moments given) at a fixed order realize that order only: the
         // factored matrix's singular vectors beyond it are not needed.
         let dec = match (moments, era_params.order) {
-            (Some(_), ModelOrder::Fixed(n)) => {
-                era_params.decompose_to_order(&okid.markov, dt_s, n)?
-            }
+            (Some(_), ModelOrder::Fixed(n)) => era_params.decompose_observer_to_order(
+                &okid.markov,
+                dt_s,
+                n,
+                okid.observer_order * m,
+            )?,
             _ => era_params.decompose(&okid.markov, dt_s)?,
         };
         Ok(Decomposed {
