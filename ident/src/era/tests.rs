@@ -297,3 +297,32 @@ fn a_decomposition_to_one_order_realizes_it_as_the_full_one_does() {
         ));
     }
 }
+
+#[test]
+fn an_observer_with_more_states_than_h0_rank_skips_only_a_failing_compression() {
+    // ERA/DC of a 20-state system's exact Markov parameters with 5 block rows of 3
+    // outputs: H(0) has rank 15 < 20, so the correlation Hankel matrix (rank 20) is not
+    // in the compressed space and the compression fails; given the 20 states, the attempt
+    // is skipped and the result is the same bit for bit. With 6 states (rank 6 = states)
+    // the compression succeeds and is still tried: again the same bits.
+    let mut rng = ChaCha8Rng::seed_from_u64(31);
+    for (states, rows) in [(20, 5), (6, 30)] {
+        let (m, r) = (3, 1);
+        let sys = random_stable_system(&mut rng, states, m, r, 0.95);
+        let params = EraParams {
+            block_rows: Some(rows),
+            block_cols: Some(60),
+            correlation: Correlation::Dc { xi: 2, zeta: 2 },
+            offset: 0,
+            order: ModelOrder::Fixed(4),
+        };
+        let markov = sys.markov(params.shape(m, r, 1000).unwrap().markov_needed());
+        let tried = params.decompose_to_order(&markov, 1.0, 4).unwrap();
+        let given = params
+            .decompose_observer_to_order(&markov, 1.0, 4, states)
+            .unwrap();
+        let (a, b) = (tried.realize(4).unwrap(), given.realize(4).unwrap());
+        assert_eq!(a.realization, b.realization, "{states} states");
+        assert_eq!(a.singular_values, b.singular_values, "{states} states");
+    }
+}
