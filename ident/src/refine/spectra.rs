@@ -71,7 +71,17 @@ thread_local! {
     /// FFT plans are cached per thread (a plan is pure: the results do not depend on
     /// which thread made it, nor on whether it was cached).
     static PLANNER: RefCell<FftPlanner<f64>> = RefCell::new(FftPlanner::new());
+    /// [`Kernel::new`]'s three long buffers (the frequency response, the padded spectrum
+    /// and the FFT scratch), kept by the thread between kernels up to
+    /// [`KEPT_KERNEL_BUFFER`] values each: every value read is written first, so they only
+    /// spare the fresh pages (a Cramér–Rao bound of a paper-case campaign took about 180
+    /// page faults for them).
+    static KERNEL_BUFFERS: RefCell<[Vec<C64>; 3]> = const { RefCell::new([Vec::new(), Vec::new(), Vec::new()]) };
 }
+
+/// Largest buffer (values) that [`KERNEL_BUFFERS`] keeps: 8 MB each; the kernels of long
+/// records use fresh ones.
+const KEPT_KERNEL_BUFFER: usize = 1 << 19;
 
 /// The cached forward or inverse FFT of length `len`.
 fn plan(len: usize, direction: FftDirection) -> Arc<dyn Fft<f64>> {
@@ -198,12 +208,11 @@ pub(crate) fn noise_free_outputs(model: &Model, inputs: &[DMatrix<f64>]) -> Vec<
             // The outputs are real, so two of them share one complex inverse transform (the
             // first in the real part, the second in the imaginary part).
             let mut kernels: BTreeMap<usize, Kernel> = BTreeMap::new();
-            let mut scratch = Vec::new();
             for u in inputs {
                 let len = u.ncols();
                 kernels
                     .entry(len)
-                    .or_insert_with(|| Kernel::new(model, len, decay, &mut scratch));
+                    .or_insert_with(|| Kernel::new(model, len, decay));
             }
             // Records in parallel, each with its own buffers (the same numbers on any thread).
             inputs
@@ -299,18 +308,38 @@ struct Kernel {
 }
 
 impl Kernel {
-    fn new(model: &Model, len: usize, decay: usize, scratch: &mut Vec<C64>) -> Self {
+    fn new(model: &Model, len: usize, decay: usize) -> Self {
+        let [mut frf, mut spec, mut scratch] =
+            KERNEL_BUFFERS.with(|b| std::mem::take(&mut *b.borrow_mut()));
+        let kernel = Self::with_buffers(model, len, decay, [&mut frf, &mut spec, &mut scratch]);
+        let keep = |v: Vec<C64>| {
+            if v.capacity() <= KEPT_KERNEL_BUFFER {
+                v
+            } else {
+                Vec::new()
+            }
+        };
+        KERNEL_BUFFERS.with(|b| *b.borrow_mut() = [keep(frf), keep(spec), keep(scratch)]);
+        kernel
+    }
+
+    fn with_buffers(
+        model: &Model,
+        len: usize,
+        decay: usize,
+        [frf, spec, scratch]: [&mut Vec<C64>; 3],
+    ) -> Self {
         let (n, r) = (model.n, model.r);
         let padded = (2 * len)
             .saturating_add(decay)
             .min(1 << 22)
             .next_power_of_two();
         let pairs = n * r;
-        let frf = frequency_response(model, padded);
+        frequency_response(model, padded, frf);
         let inv = plan(padded, FftDirection::Inverse);
         let q = (2 * len).next_power_of_two();
         let fwd = plan(q, FftDirection::Forward);
-        let mut spec = Vec::with_capacity(padded);
+        spec.reserve(padded);
         // Pair index `i + l n` (outputs fastest), as in `frf`.
         let mut spectra = Vec::with_capacity(pairs);
         // The lags are real: two pairs share one complex inverse transform (the first in
@@ -335,7 +364,7 @@ impl Kernel {
                         C64::new(a.re + b.im, b.re - a.im)
                     }),
             );
-            transform(inv.as_ref(), &mut spec, scratch);
+            transform(inv.as_ref(), spec, scratch);
             let scale = 1.0 / padded as f64;
             for (pair, part) in [(Some(first), false), (second, true)] {
                 let Some(_) = pair else { continue };
@@ -362,8 +391,8 @@ impl Kernel {
 /// `H(j omega_k) = -omega^2 (K - omega^2 M + j omega R)^-1 B2` (n x r, column-major, at
 /// `k n r`) for the bins `0..=padded/2` of a DFT of length `padded` (`padded` even; the
 /// Nyquist bin's real part only, as for a band-limited response); zero where it does not
-/// exist.
-fn frequency_response(model: &Model, padded: usize) -> Vec<C64> {
+/// exist. Written over `out` (its length set).
+fn frequency_response(model: &Model, padded: usize, out: &mut Vec<C64>) {
     let (n, r) = (model.n, model.r);
     let (k_n, m_n, d_n) = (
         model.stiffness.as_slice(),
@@ -373,7 +402,8 @@ fn frequency_response(model: &Model, padded: usize) -> Vec<C64> {
     let b2 = model.b2.as_slice();
     let pairs = n * r;
     let bins = padded / 2 + 1;
-    let mut out = vec![C64::new(0.0, 0.0); bins * pairs];
+    out.clear();
+    out.resize(bins * pairs, C64::new(0.0, 0.0));
     // The solve with the size as a constant (the common small frames), so that its loops
     // unroll: the same operations in the same order as for any size.
     let solve = |q: &mut [C64], h: &mut [C64]| match (n, r) {
@@ -407,5 +437,4 @@ fn frequency_response(model: &Model, padded: usize) -> Vec<C64> {
     for v in &mut out[(bins - 1) * pairs..] {
         v.im = 0.0;
     }
-    out
 }
