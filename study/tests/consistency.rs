@@ -248,3 +248,21 @@ fn a_single_sample_glitch_is_named() {
         a.warnings
     );
 }
+
+/// The error bars are computed alongside the residual check of the hits; when that
+/// check drops a hit, they must be those of the hits kept, not of the campaign as read.
+#[test]
+fn error_bars_follow_a_hit_dropped_by_the_residual_check() {
+    let (clean_campaign, _) = clean();
+    let mut camp = clean_campaign.clone();
+    corrupt(&mut camp, 0, &Fault::Burst(1, 146, 1, 0.202531759638919));
+    let a = analyze(&camp, &AnalysisSettings::default()).unwrap();
+    assert_eq!(a.dropped, [0], "{:?}", a.warnings);
+    let u = a.uncertainty.as_ref().expect("error bars");
+    assert_eq!((u.hits, a.campaign.len()), (HITS - 1, HITS - 1));
+    // The same hits without the residual check's drop: the same error bars.
+    let kept = camp.subset(&(1..HITS).collect::<Vec<_>>());
+    let b = analyze(&kept, &AnalysisSettings::default()).unwrap();
+    assert!(b.dropped.is_empty(), "{:?}", b.warnings);
+    assert_eq!(b.uncertainty.as_ref(), Some(u));
+}
