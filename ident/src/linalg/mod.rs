@@ -859,6 +859,9 @@ const LEADING_MAX_ITERATIONS: usize = 30;
 /// sign (and within a cluster of equal values up to rotation), as [`thin_svd`]'s are.
 pub fn leading_svd(m: &DMatrix<f64>, k: usize) -> Result<Option<ThinSvd>, LinalgError> {
     ensure_finite(m, "matrix")?;
+    if !leading_block_fits(m, k) {
+        return Ok(None);
+    }
     let (rows, cols) = m.shape();
     // The values of an elongated matrix from its square triangular factor, as `thin_svd`
     // does (the bidiagonalization then runs over the short side only).
@@ -875,6 +878,19 @@ pub fn leading_svd(m: &DMatrix<f64>, k: usize) -> Result<Option<ThinSvd>, Linalg
         (0..k).all(|i| residual.column(i).norm() <= tol && (small.s[i] - values[i]).abs() <= tol)
     };
     Ok(subspace_iteration(m, k, s0, &converged)?.map(|svd| ThinSvd { s: values, ..svd }))
+}
+
+/// Whether [`leading_svd`]'s block of `k + 8` columns is at most half of `min(rows, cols)`
+/// (and `k > 0`); otherwise the full SVD is about as cheap. Panics if `k` exceeds
+/// `min(rows, cols)`.
+fn leading_block_fits(m: &DMatrix<f64>, k: usize) -> bool {
+    let (rows, cols) = m.shape();
+    let full = rows.min(cols);
+    assert!(
+        k <= full,
+        "leading_svd: {k} vectors of a {rows} x {cols} matrix"
+    );
+    k > 0 && 2 * (k + LEADING_OVERSAMPLE) <= full
 }
 
 /// The residual bound of [`leading_svd`] and [`leading_svd_certified`]:
@@ -904,39 +920,35 @@ pub fn leading_svd_certified(m: &DMatrix<f64>, k: usize) -> Result<Option<ThinSv
     // An estimate of `s_1` for the tolerance (the largest column norm is within a factor
     // `sqrt(cols)` of it; the certificate below uses the Ritz value, a lower bound).
     let col_max = m.column_iter().map(|c| c.norm()).fold(0.0, f64::max);
-    let certified = std::cell::Cell::new(false);
-    let converged = |small: &ThinSvd, residual: &DMatrix<f64>| {
-        let s1 = small.s[0].max(col_max);
-        let tol = leading_tolerance(m, s1);
-        if !(0..k).all(|i| residual.column(i).norm() <= tol) {
-            return false;
-        }
-        let captured: f64 = small.s.iter().take(k).map(|s| s * s).sum();
-        // `|m|_F^2 - sum s_i^2` loses about `eps |m|_F^2` to round-off (each term once):
-        // a margin of 4 k eps |m|_F^2 covers it.
-        let energy =
-            ((fro2 - captured).max(0.0) + 4.0 * (k + 1) as f64 * f64::EPSILON * fro2).sqrt();
-        let ok = energy < small.s[k - 1] - (k as f64).sqrt() * tol;
-        certified.set(ok);
-        // Converged either way: without the certificate the values-only SVD decides.
-        true
-    };
-    if k == 0 || 2 * (k + LEADING_OVERSAMPLE) > m.nrows().min(m.ncols()) || fro2 <= 0.0 {
+    let tol = |ritz: &DVector<f64>| leading_tolerance(m, ritz[0].max(col_max));
+    if !leading_block_fits(m, k) || fro2 <= 0.0 {
         // What `leading_svd` returns, without its values-only SVD.
         return Ok(None);
     }
-    match subspace_iteration(m, k, fro2.sqrt(), &converged)? {
-        Some(svd) if certified.get() => Ok(Some(svd)),
-        _ => leading_svd(m, k),
+    let converged = |small: &ThinSvd, residual: &DMatrix<f64>| {
+        let tol = tol(&small.s);
+        (0..k).all(|i| residual.column(i).norm() <= tol)
+    };
+    let Some(svd) = subspace_iteration(m, k, fro2.sqrt(), &converged)? else {
+        return leading_svd(m, k);
+    };
+    let captured: f64 = svd.s.iter().take(k).map(|s| s * s).sum();
+    // `|m|_F^2 - sum s_i^2` loses about `eps |m|_F^2` to round-off (each term once):
+    // a margin of 4 k eps |m|_F^2 covers it.
+    let energy = ((fro2 - captured).max(0.0) + 4.0 * (k + 1) as f64 * f64::EPSILON * fro2).sqrt();
+    if energy < svd.s[k - 1] - (k as f64).sqrt() * tol(&svd.s) {
+        Ok(Some(svd))
+    } else {
+        // No certificate: the values-only SVD decides.
+        leading_svd(m, k)
     }
 }
 
 /// The block subspace iteration of [`leading_svd`] and [`leading_svd_certified`]: the
 /// leading `k` left and right Ritz vectors (`u`, `v`) and the block's `k + 8` Ritz values
 /// (`s`) once `converged(small, residual)` says so (`residual` holds `m v_i - s_i u_i`,
-/// `i < k`).
-/// `None` when `k` is 0, the block is more than half of `min(rows, cols)`, `scale` (a
-/// norm of `m`) is 0, or after [`LEADING_MAX_ITERATIONS`].
+/// `i < k`). The block must fit ([`leading_block_fits`]). `None` when `scale` (a norm of
+/// `m`) is 0, or after [`LEADING_MAX_ITERATIONS`].
 fn subspace_iteration(
     m: &DMatrix<f64>,
     k: usize,
@@ -944,13 +956,9 @@ fn subspace_iteration(
     converged: &dyn Fn(&ThinSvd, &DMatrix<f64>) -> bool,
 ) -> Result<Option<ThinSvd>, LinalgError> {
     let (rows, cols) = m.shape();
-    let full = rows.min(cols);
-    assert!(
-        k <= full,
-        "leading_svd: {k} vectors of a {rows} x {cols} matrix"
-    );
+    debug_assert!(leading_block_fits(m, k));
     let block = k + LEADING_OVERSAMPLE;
-    if k == 0 || 2 * block > full || scale <= 0.0 {
+    if scale <= 0.0 {
         return Ok(None);
     }
     // Start: the directions of the rows of largest norm (ties by index: deterministic).

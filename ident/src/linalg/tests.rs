@@ -257,26 +257,42 @@ fn spectral_radius_of_block_companion_matrices_with_known_roots() {
     assert!((got - 0.99).abs() < 1e-12, "{got}");
 }
 
+/// Random orthogonal factors, 90 x 90 and 84 x 84 (seed 5), of the ERA-like test matrices.
+fn era_like_factors() -> (DMatrix<f64>, DMatrix<f64>) {
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let mut orth = |n: usize| {
+        let g = DMatrix::from_fn(n, n, |_, _| rng.random::<f64>() - 0.5);
+        thin_qr(&g).0
+    };
+    let u = orth(90);
+    (u, orth(84))
+}
+
+/// Singular values as ERA's Hankel matrices have them: three close pairs (structural modes,
+/// 1e0 to 1e-2 of the largest) over a noise floor falling from 1e-4 of it; `n` in all.
+fn era_like_values(n: usize) -> Vec<f64> {
+    let mut s = vec![100.0, 99.99, 10.0, 9.999, 1.0, 0.9999];
+    s.extend((0..n - 6).map(|i| 1e-2 * 0.95f64.powi(i as i32)));
+    s
+}
+
+/// `u diag(s) v^T` with the first `s.len()` columns of `u`.
+fn with_values(u: &DMatrix<f64>, v: &DMatrix<f64>, s: &[f64]) -> DMatrix<f64> {
+    u.columns(0, s.len()) * DMatrix::from_diagonal(&DVector::from_row_slice(s)) * v.transpose()
+}
+
 #[test]
 fn leading_svd_matches_the_full_svd_on_an_era_like_spectrum() {
-    // Known singular values as ERA's Hankel matrices have them: three close
-    // pairs (structural modes, 1e0 to 1e-2 of the largest) over a noise floor
-    // falling from 1e-4; random orthogonal factors. The leading vectors must
+    // Known singular values as ERA's Hankel matrices have them (`era_like_values`),
+    // random orthogonal factors. The leading vectors must
     // agree with the full SVD's up to sign: within the pair's conditioning,
     // residual 1e-13 s_1 over the 1e-4 relative gap inside a pair gives 1e-9,
     // so 1e-8 is the tolerance (measured: 1.8e-11 for the weakest pair, 4e-13
     // for the strongest; values within 4e-16 of s_1).
-    let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let (rows, cols) = (90, 84);
-    let orth = |rng: &mut ChaCha8Rng, n: usize| {
-        let g = DMatrix::from_fn(n, n, |_, _| rng.random::<f64>() - 0.5);
-        thin_qr(&g).0
-    };
-    let (u, v) = (orth(&mut rng, rows), orth(&mut rng, cols));
-    let mut s = vec![100.0, 99.99, 10.0, 9.999, 1.0, 0.9999];
-    s.extend((0..cols - 6).map(|i| 1e-2 * 0.95f64.powi(i as i32)));
-    let m =
-        u.columns(0, cols) * DMatrix::from_diagonal(&DVector::from_vec(s.clone())) * v.transpose();
+    let (u, v) = era_like_factors();
+    let (rows, cols) = (u.nrows(), v.nrows());
+    let s = era_like_values(cols);
+    let m = with_values(&u, &v, &s);
     let full = thin_svd(&m).unwrap();
     for k in [2, 4, 6] {
         let lead = leading_svd(&m, k)
@@ -328,19 +344,13 @@ fn leading_svd_without_a_gap_gives_up() {
 fn certified_leading_svd_matches_the_full_svd_without_the_values() {
     // The ERA-like spectrum of `leading_svd_matches_the_full_svd_on_an_era_like_spectrum`:
     // three close pairs over a noise floor. The certificate holds (the energy past the
-    // k-th value is at most 0.15 of it: 14.2 against 99.99 for k = 2); values within sqrt(k) tol = sqrt(6) 64 eps sqrt(90) 100 (4e-11)
-    // of the SVD's (measured: within 1.0e-15 of s_1 = 100), vectors up to sign as in that test.
-    let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let (rows, cols) = (90, 84);
-    let orth = |rng: &mut ChaCha8Rng, n: usize| {
-        let g = DMatrix::from_fn(n, n, |_, _| rng.random::<f64>() - 0.5);
-        thin_qr(&g).0
-    };
-    let (u, v) = (orth(&mut rng, rows), orth(&mut rng, cols));
-    let mut s = vec![100.0, 99.99, 10.0, 9.999, 1.0, 0.9999];
-    s.extend((0..cols - 6).map(|i| 1e-2 * 0.95f64.powi(i as i32)));
-    let m =
-        u.columns(0, cols) * DMatrix::from_diagonal(&DVector::from_vec(s.clone())) * v.transpose();
+    // k-th value is at most 0.15 of it: 14.2 against 99.99 for k = 2); values within
+    // sqrt(k) tol = sqrt(6) 64 eps sqrt(90) 100 (4e-11) of the SVD's (measured: within
+    // 1.0e-15 of s_1 = 100), vectors up to sign as in that test.
+    let (u, v) = era_like_factors();
+    let (rows, cols) = (u.nrows(), v.nrows());
+    let s = era_like_values(cols);
+    let m = with_values(&u, &v, &s);
     let full = thin_svd(&m).unwrap();
     for k in [2, 4, 6] {
         let lead = leading_svd_certified(&m, k).unwrap().expect("certified");
@@ -365,7 +375,7 @@ fn certified_leading_svd_matches_the_full_svd_without_the_values() {
     // all values included.
     let mut heavy = vec![100.0, 99.99, 10.0, 9.999];
     heavy.extend(std::iter::repeat_n(2.0, cols - 4));
-    let m2 = u.columns(0, cols) * DMatrix::from_diagonal(&DVector::from_vec(heavy)) * v.transpose();
+    let m2 = with_values(&u, &v, &heavy);
     let a = leading_svd_certified(&m2, 4).unwrap().expect("converges");
     let b = leading_svd(&m2, 4).unwrap().expect("converges");
     assert_eq!(a.s.len(), cols);

@@ -73,9 +73,8 @@ pub(crate) fn minimize<E>(
 }
 
 /// A point evaluated by the tail evaluation (its cost and `extra`, no Gauss-Newton matrix),
-/// where a run ended (see [`minimize_to_tail`]).
+/// where a run ended (see [`minimize_to_tail`]; the point is its `theta`).
 pub(crate) struct TailPoint<E> {
-    pub theta: DVector<f64>,
     pub cost: f64,
     pub extra: E,
 }
@@ -126,21 +125,15 @@ pub(crate) fn minimize_to_tail<E>(
     eval_tail: impl FnMut(&DVector<f64>) -> Option<(f64, E)>,
 ) -> TailOutcome<E> {
     let (outcome, tail) = iterate(theta, start, settings, mu, eval, Some(eval_tail));
-    match tail {
-        Some(tail) => TailOutcome {
-            theta: tail.theta.clone(),
-            end: End::Tail(tail),
-            damping: outcome.damping,
-            iterations: outcome.iterations,
-            stop: outcome.stop,
+    TailOutcome {
+        theta: outcome.theta,
+        end: match tail {
+            Some(tail) => End::Tail(tail),
+            None => End::Point(outcome.point),
         },
-        None => TailOutcome {
-            theta: outcome.theta,
-            end: End::Point(outcome.point),
-            damping: outcome.damping,
-            iterations: outcome.iterations,
-            stop: outcome.stop,
-        },
+        damping: outcome.damping,
+        iterations: outcome.iterations,
+        stop: outcome.stop,
     }
 }
 
@@ -148,8 +141,8 @@ pub(crate) fn minimize_to_tail<E>(
 type NoTail<E> = fn(&DVector<f64>) -> Option<(f64, E)>;
 
 /// The Levenberg–Marquardt loop. With `eval_tail`, the run may end at a point evaluated by
-/// it: that point is returned beside the outcome, whose `theta` and `point` are then the
-/// last point with the Jacobian (the `damping`, `iterations` and `stop` are the run's).
+/// it: the outcome's `theta` is then that point, whose evaluation is returned beside it
+/// (`point` stays the last one with the Jacobian).
 fn iterate<E, F: FnMut(&DVector<f64>) -> Option<(f64, E)>>(
     theta: DVector<f64>,
     start: Point<E>,
@@ -220,11 +213,8 @@ fn iterate<E, F: FnMut(&DVector<f64>) -> Option<(f64, E)>>(
                     {
                         let rho = (point.cost - cost) / predicted;
                         mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
-                        ended = Some(TailPoint {
-                            theta: candidate,
-                            cost,
-                            extra,
-                        });
+                        theta = candidate;
+                        ended = Some(TailPoint { cost, extra });
                         break StopReason::Cost;
                     }
                     // Better, but the model was not that accurate: the Jacobian there after all.
