@@ -786,6 +786,135 @@ pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     (lo[0] + hi[0]) + (lo[1] + hi[1]) + tail
 }
 
+/// Rows of a column pass of [`cross_products`]: the `P x Q` two-lane partial sums of a tile
+/// stay in registers (`2 P Q + 2 (P + Q)` values: 14 of the 16 SSE registers for 2 x 4).
+const TILE_ROWS: usize = 2;
+
+/// `out[p * b.len() + q] = a[p] . b[q]` for column slices of one length: the products of `P`
+/// columns of `a` with up to four of `b` are summed together in one pass over the rows (each
+/// loaded value serves several products), two lanes per product (elements `l mod 2`), the sum
+/// `s0 + s1 + tail`: a fixed order whatever the threads. Panics if the columns' lengths differ.
+pub(crate) fn cross_products(a: &[&[f64]], b: &[&[f64]], out: &mut [f64]) {
+    let len = a.first().or(b.first()).map_or(0, |c| c.len());
+    assert!(
+        a.iter().chain(b).all(|c| c.len() == len),
+        "cross_products: columns of different lengths"
+    );
+    assert_eq!(out.len(), a.len() * b.len(), "cross_products: output size");
+    let nb = b.len();
+    let mut p = 0;
+    while p < a.len() {
+        let pa = (a.len() - p).min(2);
+        let mut q = 0;
+        while q < nb {
+            let qb = (nb - q).min(4);
+            let (at, bt) = (&a[p..p + pa], &b[q..q + qb]);
+            let mut put = |i: usize, j: usize, v: f64| out[(p + i) * nb + q + j] = v;
+            match (pa, qb) {
+                (2, 4) => tile::<2, 4>(at, bt, &mut put),
+                (2, 3) => tile::<2, 3>(at, bt, &mut put),
+                (2, 2) => tile::<2, 2>(at, bt, &mut put),
+                (2, _) => tile::<2, 1>(at, bt, &mut put),
+                (_, 4) => tile::<1, 4>(at, bt, &mut put),
+                (_, 3) => tile::<1, 3>(at, bt, &mut put),
+                (_, 2) => tile::<1, 2>(at, bt, &mut put),
+                _ => tile::<1, 1>(at, bt, &mut put),
+            }
+            q += qb;
+        }
+        p += pa;
+    }
+}
+
+/// One tile of [`cross_products`]: `P` columns of `a` against `Q` of `b`.
+#[inline(always)]
+fn tile<const P: usize, const Q: usize>(
+    a: &[&[f64]],
+    b: &[&[f64]],
+    put: &mut impl FnMut(usize, usize, f64),
+) {
+    let len = a[0].len();
+    let whole = len - len % TILE_ROWS;
+    // Whole row groups of every column, each exactly `groups` long.
+    let groups = len / TILE_ROWS;
+    let ag: [&[[f64; TILE_ROWS]]; P] =
+        std::array::from_fn(|i| &a[i].as_chunks::<TILE_ROWS>().0[..groups]);
+    let bg: [&[[f64; TILE_ROWS]]; Q] =
+        std::array::from_fn(|j| &b[j].as_chunks::<TILE_ROWS>().0[..groups]);
+    let acc = tile_sums(&ag, &bg);
+    for i in 0..P {
+        for j in 0..Q {
+            let mut tail = 0.0;
+            for l in whole..len {
+                tail += a[i][l] * b[j][l];
+            }
+            put(i, j, acc[i][j][0] + acc[i][j][1] + tail);
+        }
+    }
+}
+
+/// The lanes' sums of a tile: `acc[i][j][k] = sum_g a[i][g][k] * b[j][g][k]`, in `g` order.
+/// On x86-64 with SSE2 vectors (part of its baseline): the compiler's own vectorization pairs
+/// products of different columns here and shuffles, slower than plain dot products.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn tile_sums<const P: usize, const Q: usize>(
+    a: &[&[[f64; TILE_ROWS]]; P],
+    b: &[&[[f64; TILE_ROWS]]; Q],
+) -> [[[f64; TILE_ROWS]; Q]; P] {
+    // SAFETY: SSE2 is enabled on every x86-64 target (it is in the architecture's baseline).
+    unsafe { tile_sums_sse2(a, b) }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "sse2")]
+fn tile_sums_sse2<const P: usize, const Q: usize>(
+    a: &[&[[f64; TILE_ROWS]]; P],
+    b: &[&[[f64; TILE_ROWS]]; Q],
+) -> [[[f64; TILE_ROWS]; Q]; P] {
+    use std::arch::x86_64::{__m128d, _mm_add_pd, _mm_mul_pd, _mm_set_pd, _mm_setzero_pd};
+    let groups = a.first().map_or(0, |c| c.len());
+    let mut acc: [[__m128d; Q]; P] = [[_mm_setzero_pd(); Q]; P];
+    for g in 0..groups {
+        let x: [__m128d; P] = std::array::from_fn(|i| _mm_set_pd(a[i][g][1], a[i][g][0]));
+        for j in 0..Q {
+            let y = _mm_set_pd(b[j][g][1], b[j][g][0]);
+            for i in 0..P {
+                acc[i][j] = _mm_add_pd(acc[i][j], _mm_mul_pd(x[i], y));
+            }
+        }
+    }
+    acc.map(|row| {
+        row.map(|v| {
+            let mut lanes = [0.0; TILE_ROWS];
+            // Two f64 lanes into two f64: the same bits.
+            lanes.copy_from_slice(&unsafe { std::mem::transmute::<__m128d, [f64; 2]>(v) });
+            lanes
+        })
+    })
+}
+
+/// The lanes' sums of a tile (see the x86-64 version): the same sums in the same order.
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn tile_sums<const P: usize, const Q: usize>(
+    a: &[&[[f64; TILE_ROWS]]; P],
+    b: &[&[[f64; TILE_ROWS]]; Q],
+) -> [[[f64; TILE_ROWS]; Q]; P] {
+    let groups = a.first().map_or(0, |c| c.len());
+    let mut acc = [[[0.0; TILE_ROWS]; Q]; P];
+    for g in 0..groups {
+        for i in 0..P {
+            for j in 0..Q {
+                for k in 0..TILE_ROWS {
+                    acc[i][j][k] += a[i][g][k] * b[j][g][k];
+                }
+            }
+        }
+    }
+    acc
+}
+
 /// Thin SVD by nalgebra (`rows` x `cols` is the shape reported on failure).
 fn square_svd(m: &DMatrix<f64>, rows: usize, cols: usize) -> Result<ThinSvd, LinalgError> {
     let svd = SVD::try_new(

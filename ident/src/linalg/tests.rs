@@ -409,3 +409,45 @@ fn certified_leading_svd_does_not_accept_a_missed_direction() {
         Some(svd) => assert!((svd.s[0] - top).abs() < 1e-10, "{}", svd.s[0]),
     }
 }
+
+/// The naive oracle of `cross_products`: each product summed alone over its lanes (elements
+/// `l mod 2` up to the last whole pair), then the odd element, in the documented order.
+fn cross_product_oracle(a: &[f64], b: &[f64]) -> f64 {
+    let whole = a.len() - a.len() % 2;
+    let lane = |k: usize| (k..whole).step_by(2).fold(0.0, |s, l| s + a[l] * b[l]);
+    let tail = (whole..a.len()).fold(0.0, |s, l| s + a[l] * b[l]);
+    lane(0) + lane(1) + tail
+}
+
+#[test]
+fn cross_products_match_the_naive_sums_bit_for_bit_for_every_tile_shape() {
+    let mut rng = ChaCha8Rng::seed_from_u64(41);
+    // Widths 1 to 9 and 1 to 6 take every tile (2 x 4 down to 1 x 1) and their remainders;
+    // lengths 0, 1 and odd ones take the empty pass and the tail.
+    for len in [0, 1, 2, 7, 64, 257] {
+        for na in 1..=9 {
+            for nb in 1..=6 {
+                let cols = |n: usize, rng: &mut ChaCha8Rng| -> Vec<Vec<f64>> {
+                    (0..n)
+                        .map(|_| (0..len).map(|_| rng.random_range(-1.0..1.0)).collect())
+                        .collect()
+                };
+                let (a, b) = (cols(na, &mut rng), cols(nb, &mut rng));
+                let ar: Vec<&[f64]> = a.iter().map(|c| c.as_slice()).collect();
+                let br: Vec<&[f64]> = b.iter().map(|c| c.as_slice()).collect();
+                let mut out = vec![f64::NAN; na * nb];
+                cross_products(&ar, &br, &mut out);
+                for p in 0..na {
+                    for q in 0..nb {
+                        // The same sums in the same order: equal bit for bit.
+                        assert_eq!(
+                            out[p * nb + q].to_bits(),
+                            cross_product_oracle(&a[p], &b[q]).to_bits(),
+                            "len {len}, {na} x {nb}, entry ({p}, {q})"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}

@@ -25,7 +25,7 @@ use super::dense;
 use super::model::Model;
 use super::param::Parameter;
 use super::spectra::{Bin, Spectra};
-use crate::linalg::{C64, dot};
+use crate::linalg::{C64, cross_products, dot};
 use crate::mkr::MatrixKind;
 use crate::modal::Intersample;
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
@@ -279,55 +279,122 @@ fn subtract_nuisance(jtx_h: &[f64], xtx_inv: &DMatrix<f64>, t: &mut [f64], jtj: 
     }
 }
 
-/// One output's Jacobian row of one hit (`out`: `npp` real parts, then `npp` imaginary
-/// parts): `sum_q xi_q S_q + sum_t c_t W_t` with the real transient terms `S_q` and the
-/// complex terms `W_t`, both laid out per chunk of `LANES` parameters (`sw`: `xi.len()` terms
-/// per chunk, `ww`: `nc` terms per chunk of which the first `coef.len()` are used). The
-/// chunk's sums stay in registers; each element is summed in term order.
-#[inline]
-fn row_kernel(sw: &[f64], xi: &[f64], ww: &[f64], nc: usize, coef: &[C64], out: &mut [f64]) {
-    let npp = out.len() / 2;
-    let s = xi.len();
-    let (out_re, out_im) = out.split_at_mut(npp);
-    for ((o_re, o_im), (s_blk, w_blk)) in out_re
-        .chunks_exact_mut(LANES)
-        .zip(out_im.chunks_exact_mut(LANES))
-        .zip(
-            sw.chunks_exact(s * 2 * LANES)
-                .zip(ww.chunks_exact(nc * 2 * LANES)),
-        )
-    {
-        let mut re = [0.0; LANES];
-        let mut im = [0.0; LANES];
-        let mut terms = s_blk.chunks_exact(2 * LANES).zip(xi);
-        if let Some((w, &x)) = terms.next() {
-            for k in 0..LANES {
-                re[k] = w[k] * x;
-                im[k] = w[LANES + k] * x;
+/// Adds one hit's share of a block to `J^T J` (upper triangle, row-major, `np` x `np`),
+/// `J^T X` (`np` x `s`, row-major) and, with `r`, `J^T r`: the products of its Jacobian
+/// columns `j` (`np` of them) with themselves, the transient regressors `x` and the residual,
+/// in pairs of Jacobian columns against all the others from the pair's first on
+/// ([`cross_products`]); `out` is scratch.
+fn reduce_hit(
+    j: &[&[f64]],
+    x: &[&[f64]],
+    r: Option<&[f64]>,
+    out: &mut Vec<f64>,
+    jtj: &mut [f64],
+    jtx: &mut [f64],
+    jtr: &mut [f64],
+) {
+    let (np, s) = (j.len(), x.len());
+    let partners: Vec<&[f64]> = j.iter().chain(x).copied().chain(r).collect();
+    for p0 in (0..np).step_by(2) {
+        let pair = &j[p0..(p0 + 2).min(np)];
+        let b = &partners[p0..];
+        out.clear();
+        out.resize(pair.len() * b.len(), 0.0);
+        cross_products(pair, b, out);
+        for (i, row) in out.chunks_exact(b.len()).enumerate() {
+            let p = p0 + i;
+            // Row `p` of the pair against columns `p0..`: `J^T J` from the diagonal on.
+            for (q, v) in row[..np - p0].iter().enumerate().skip(i) {
+                jtj[p * np + p0 + q] += v;
+            }
+            for (t, v) in jtx[p * s..(p + 1) * s]
+                .iter_mut()
+                .zip(&row[np - p0..np - p0 + s])
+            {
+                *t += v;
+            }
+            if r.is_some() {
+                jtr[p] += row[np - p0 + s];
             }
         }
-        for (w, &x) in terms {
-            let (wr, wi) = w.split_at(LANES);
-            for k in 0..LANES {
-                re[k] += wr[k] * x;
-            }
-            for k in 0..LANES {
-                im[k] += wi[k] * x;
-            }
-        }
-        for (w, c) in w_blk.chunks_exact(2 * LANES).zip(coef) {
-            let (wr, wi) = w.split_at(LANES);
-            let (cr, ci) = (c.re, c.im);
-            for k in 0..LANES {
-                re[k] += wr[k] * cr - wi[k] * ci;
-            }
-            for k in 0..LANES {
-                im[k] += wr[k] * ci + wi[k] * cr;
-            }
-        }
-        o_re.copy_from_slice(&re);
-        o_im.copy_from_slice(&im);
     }
+}
+
+/// One output's Jacobian rows of every hit at one line, written into the block's columns
+/// `out` (column `p` at `p * cap`; hit `h`'s real and imaginary parts at rows `h * seg + ro`
+/// and the next): per hit `sum_q xi_q S_q + sum_t c_t W_t` with the real transient terms `S_q`
+/// and the complex terms `W_t`, both laid out per chunk of `LANES` parameters (`sw`: `s`
+/// terms per chunk, `ww`: `nc` terms per chunk of which the first `used` are used). `xis`
+/// holds the hits' transients (`s` each), `coefs` their complex coefficients (`nc` each). A
+/// chunk's sums stay in registers; each element is summed in term order.
+#[allow(clippy::too_many_arguments)]
+fn hit_rows(
+    (sw, s): (&[f64], usize),
+    (ww, nc, used): (&[f64], usize, usize),
+    xis: &[f64],
+    coefs: &[C64],
+    (out, cap, seg, ro): (&mut [f64], usize, usize, usize),
+    np: usize,
+) {
+    let hits = xis.len() / s.max(1);
+    for c in 0..np.div_ceil(LANES) {
+        let s_blk = &sw[c * s * 2 * LANES..(c + 1) * s * 2 * LANES];
+        let w_blk = &ww[c * nc * 2 * LANES..(c * nc + used) * 2 * LANES];
+        let lanes = (np - c * LANES).min(LANES);
+        for h in 0..hits {
+            let (re, im) = chunk_row(
+                s_blk,
+                &xis[h * s..(h + 1) * s],
+                w_blk,
+                &coefs[h * nc..h * nc + used],
+            );
+            for k in 0..lanes {
+                let at = (c * LANES + k) * cap + h * seg + ro;
+                out[at] = re[k];
+                out[at + 1] = im[k];
+            }
+        }
+    }
+}
+
+/// One chunk of [`hit_rows`] for one hit: the real and imaginary parts of `LANES` parameters'
+/// derivatives.
+#[inline(always)]
+fn chunk_row(
+    s_blk: &[f64],
+    xi: &[f64],
+    w_blk: &[f64],
+    coef: &[C64],
+) -> ([f64; LANES], [f64; LANES]) {
+    let mut re = [0.0; LANES];
+    let mut im = [0.0; LANES];
+    let mut terms = s_blk.chunks_exact(2 * LANES).zip(xi);
+    if let Some((w, &x)) = terms.next() {
+        for k in 0..LANES {
+            re[k] = w[k] * x;
+            im[k] = w[LANES + k] * x;
+        }
+    }
+    for (w, &x) in terms {
+        let (wr, wi) = w.split_at(LANES);
+        for k in 0..LANES {
+            re[k] += wr[k] * x;
+        }
+        for k in 0..LANES {
+            im[k] += wi[k] * x;
+        }
+    }
+    for (w, c) in w_blk.chunks_exact(2 * LANES).zip(coef) {
+        let (wr, wi) = w.split_at(LANES);
+        let (cr, ci) = (c.re, c.im);
+        for k in 0..LANES {
+            re[k] += wr[k] * cr - wi[k] * ci;
+        }
+        for k in 0..LANES {
+            im[k] += wr[k] * ci + wi[k] * cr;
+        }
+    }
+    (re, im)
 }
 
 /// Row of the real and imaginary parts of channel `i` at bin index `bi`.
@@ -711,6 +778,12 @@ pub(crate) fn evaluate(
             ),
         };
         let mut jtx = vec![0.0; hits_here * np * s];
+        // The hits' transients one after another (`s` each), in slot order.
+        let xis: Vec<f64> = group
+            .hits
+            .iter()
+            .flat_map(|&h| xi[h].iter().copied())
+            .collect();
         let mut jtr = vec![0.0; hits_here * np];
         // Complex terms of row `i`: the `r` inputs and, with the weight derivative, the
         // whitened residuals `0..=i`; real terms: the `s` transient components.
@@ -741,13 +814,11 @@ pub(crate) fn evaluate(
             factor: Vec<C64>,
             bw: Vec<C64>,
             aw: Vec<C64>,
-            coef: Vec<C64>,
+            coefs: Vec<C64>,
             ww: Vec<f64>,
             sw: Vec<f64>,
             jblk: Vec<f64>,
-            jri: Vec<f64>,
             jblk2: Vec<f64>,
-            jri2: Vec<f64>,
             rz: Vec<C64>,
             acc_re: Vec<f64>,
             acc_im: Vec<f64>,
@@ -763,13 +834,11 @@ pub(crate) fn evaluate(
             factor: vec![ZERO; npp],
             bw: vec![ZERO; m * r],
             aw: vec![ZERO; m * r],
-            coef: vec![ZERO; nc],
+            coefs: vec![ZERO; hits_here * nc],
             ww: vec![0.0; m * nc * np2],
             sw: vec![0.0; m * s * np2],
             jblk: vec![0.0; np * cap],
-            jri: vec![0.0; np2],
             jblk2: vec![0.0; if second { np * cap } else { 0 }],
-            jri2: vec![0.0; np2],
             rz: vec![ZERO; s * s],
             acc_re: vec![0.0; npp],
             acc_im: vec![0.0; npp],
@@ -798,13 +867,11 @@ pub(crate) fn evaluate(
                 factor,
                 bw,
                 aw,
-                coef,
+                coefs,
                 ww,
                 sw,
                 jblk,
-                jri,
                 jblk2,
-                jri2,
                 rz,
                 acc_re,
                 acc_im,
@@ -1041,79 +1108,81 @@ pub(crate) fn evaluate(
                 // Rows of this bin in the block: hit `slot`, output `i`, real and imaginary.
                 for (slot, &h) in group.hits.iter().enumerate() {
                     let u = &spectra.u[h].as_slice()[bi * r..(bi + 1) * r];
-                    let xi_h = xi[h].as_slice();
                     let rv = &rs[slot * rows + 2 * bi * m..slot * rows + 2 * (bi + 1) * m];
+                    let coef = &mut coefs[slot * nc..(slot + 1) * nc];
                     coef[..r].copy_from_slice(u);
                     if weight_derivative {
                         for i in 0..m {
                             coef[r + i] = C64::new(rv[2 * i], rv[2 * i + 1]) / sc;
                         }
                     }
-                    for i in 0..m {
-                        // Transient terms (real coefficients) first, then the complex ones.
-                        let sw_i =
-                            &sw[i * chunks * s * 2 * LANES..(i + 1) * chunks * s * 2 * LANES];
-                        let ww_i =
-                            &ww[i * chunks * nc * 2 * LANES..(i + 1) * chunks * nc * 2 * LANES];
-                        row_kernel(sw_i, xi_h, ww_i, nc, &coef[..complex_terms(i)], jri);
-                        #[cfg(test)]
-                        {
-                            sums.rows.push((slot, row(bi, m, i), jri.to_vec()));
+                }
+                for i in 0..m {
+                    // Transient terms (real coefficients) first, then the complex ones.
+                    let sw_i = &sw[i * chunks * s * 2 * LANES..(i + 1) * chunks * s * 2 * LANES];
+                    let ww_i = &ww[i * chunks * nc * 2 * LANES..(i + 1) * chunks * nc * 2 * LANES];
+                    let ro = (bi - b0) * 2 * m + 2 * i;
+                    hit_rows(
+                        (sw_i, s),
+                        (ww_i, nc, complex_terms(i)),
+                        &xis,
+                        coefs,
+                        (jblk, cap, seg, ro),
+                        np,
+                    );
+                    #[cfg(test)]
+                    for slot in 0..hits_here {
+                        let mut values = vec![0.0; np2];
+                        for p in 0..np {
+                            values[p] = jblk[p * cap + slot * seg + ro];
+                            values[npp + p] = jblk[p * cap + slot * seg + ro + 1];
                         }
-                        let ro = slot * seg + (bi - b0) * 2 * m + 2 * i;
-                        let (j_re, j_im) = jri.split_at(npp);
-                        for (p, (&a, &b)) in j_re[..np].iter().zip(j_im).enumerate() {
-                            jblk[p * cap + ro] = a;
-                            jblk[p * cap + ro + 1] = b;
-                        }
-                        if second {
-                            row_kernel(sw_i, xi_h, ww_i, nc, &coef[..r], jri2);
-                            let (j_re, j_im) = jri2.split_at(npp);
-                            for (p, (&a, &b)) in j_re[..np].iter().zip(j_im).enumerate() {
-                                jblk2[p * cap + ro] = a;
-                                jblk2[p * cap + ro + 1] = b;
-                            }
-                        }
+                        sums.rows.push((slot, row(bi, m, i), values));
+                    }
+                    if second {
+                        hit_rows(
+                            (sw_i, s),
+                            (ww_i, nc, r),
+                            &xis,
+                            coefs,
+                            (jblk2, cap, seg, ro),
+                            np,
+                        );
                     }
                 }
             }
-            // Block full: `J^T J` over all its rows, `J^T X` and `J^T r` per hit.
-            let used = hits_here * seg;
-            for p in 0..np {
-                let cp = &jblk[p * cap..p * cap + used];
-                for q in p..np {
-                    sums.jtj[p * np + q] += dot(cp, &jblk[q * cap..q * cap + used]);
-                }
-            }
+            // Block full: per hit, `J^T J` (added over the hits), `J^T X` and `J^T r`.
             let first = 2 * m * b0;
+            let xcols: Vec<&[f64]> = (0..s)
+                .map(|q| &xreal[q * rows + first..q * rows + first + seg])
+                .collect();
+            let mut out = Vec::new();
             for slot in 0..hits_here {
-                let jtx_h = &mut sums.jtx[slot * np * s..(slot + 1) * np * s];
+                fn cols(jb: &[f64], np: usize, cap: usize, at: usize, seg: usize) -> Vec<&[f64]> {
+                    (0..np)
+                        .map(|p| &jb[p * cap + at..p * cap + at + seg])
+                        .collect()
+                }
                 let r_seg = &rs[slot * rows + first..slot * rows + first + seg];
-                for p in 0..np {
-                    let jp = &jblk[p * cap + slot * seg..p * cap + (slot + 1) * seg];
-                    for q in 0..s {
-                        jtx_h[p * s + q] +=
-                            dot(jp, &xreal[q * rows + first..q * rows + first + seg]);
-                    }
-                    sums.jtr[slot * np + p] += dot(jp, r_seg);
-                }
-            }
-            if second {
-                for p in 0..np {
-                    let cp = &jblk2[p * cap..p * cap + used];
-                    for q in p..np {
-                        sums.jtj2[p * np + q] += dot(cp, &jblk2[q * cap..q * cap + used]);
-                    }
-                }
-                for slot in 0..hits_here {
-                    let jtx_h = &mut sums.jtx2[slot * np * s..(slot + 1) * np * s];
-                    for p in 0..np {
-                        let jp = &jblk2[p * cap + slot * seg..p * cap + (slot + 1) * seg];
-                        for q in 0..s {
-                            jtx_h[p * s + q] +=
-                                dot(jp, &xreal[q * rows + first..q * rows + first + seg]);
-                        }
-                    }
+                reduce_hit(
+                    &cols(jblk, np, cap, slot * seg, seg),
+                    &xcols,
+                    Some(r_seg),
+                    &mut out,
+                    &mut sums.jtj,
+                    &mut sums.jtx[slot * np * s..(slot + 1) * np * s],
+                    &mut sums.jtr[slot * np..(slot + 1) * np],
+                );
+                if second {
+                    reduce_hit(
+                        &cols(jblk2, np, cap, slot * seg, seg),
+                        &xcols,
+                        None,
+                        &mut out,
+                        &mut sums.jtj2,
+                        &mut sums.jtx2[slot * np * s..(slot + 1) * np * s],
+                        &mut [],
+                    );
                 }
             }
             Ok(sums)
