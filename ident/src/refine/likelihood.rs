@@ -330,6 +330,26 @@ fn reduce_hit(
 #[allow(clippy::too_many_arguments)]
 fn hit_rows(
     (sw, s): (&[f64], usize),
+    w: (&[f64], usize, usize),
+    xis: &[f64],
+    coefs: &[C64],
+    out: (&mut [f64], usize, usize, usize),
+    np: usize,
+) {
+    // The transient counts of the common frames (two to four storeys) as constants, so that
+    // the loops over the transient terms unroll: the same operations in the same order.
+    match s {
+        4 => hit_rows_with((sw, 4), w, xis, coefs, out, np),
+        6 => hit_rows_with((sw, 6), w, xis, coefs, out, np),
+        8 => hit_rows_with((sw, 8), w, xis, coefs, out, np),
+        _ => hit_rows_with((sw, s), w, xis, coefs, out, np),
+    }
+}
+
+/// [`hit_rows`] itself, inlined into each of its calls so that a constant `s` unrolls it.
+#[inline(always)]
+fn hit_rows_with(
+    (sw, s): (&[f64], usize),
     (ww, nc, used): (&[f64], usize, usize),
     xis: &[f64],
     coefs: &[C64],
