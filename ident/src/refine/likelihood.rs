@@ -327,7 +327,6 @@ fn reduce_hit(
 /// terms per chunk, `ww`: `nc` terms per chunk of which the first `used` are used). `xis`
 /// holds the hits' transients (`s` each), `coefs` their complex coefficients (`nc` each). A
 /// chunk's sums stay in registers; each element is summed in term order.
-#[allow(clippy::too_many_arguments)]
 fn hit_rows(
     (sw, s): (&[f64], usize),
     w: (&[f64], usize, usize),
@@ -811,7 +810,7 @@ pub(crate) fn evaluate(
         // Per term, the real parts of the parameters' weights followed by the imaginary
         // parts (`2 npp` values).
         let np2 = 2 * npp;
-        // `sw` and `ww` are laid out for `row_kernel`: per output `i` and chunk `c` of
+        // `sw` and `ww` are laid out for `hit_rows`: per output `i` and chunk `c` of
         // `LANES` parameters, the terms one after another, each as `LANES` real parts then
         // `LANES` imaginary parts.
         let chunks = npp / LANES;
@@ -1044,7 +1043,7 @@ pub(crate) fn evaluate(
                 }
                 // Transient terms: `-sc L^-1 (dC + C R dA_d) R z`, the derivative of the
                 // whitened transient regressor, whose coefficients are the real `xi`.
-                // Laid out for `row_kernel`: per output and chunk of parameters, the `s` terms.
+                // Laid out for `hit_rows`: per output and chunk of parameters, the `s` terms.
                 for (v, r) in rz.iter_mut().zip(res) {
                     *v = r * bin.z;
                 }

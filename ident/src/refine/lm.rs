@@ -34,11 +34,11 @@ pub(crate) const INITIAL_DAMPING: f64 = 1e-3;
 
 /// Smallest factor of Nielsen's damping update after an accepted step, `mu *= max(floor, 1 -
 /// (2 rho - 1)^3)` (`rho`: actual over predicted decrease). Nielsen's own floor is 1/3; the
-/// factor only comes near this one when `rho` is within a few percent of 1, that is, where the
-/// quadratic model predicted the step's decrease almost exactly, and there the damping only
-/// slows the convergence along the weakly determined directions of the scaled Gauss-Newton
-/// matrix (the damping ratio `mu / (lambda + mu)` of an eigenvalue `lambda` is what is left of
-/// the step there). A rejected step still multiplies the damping by 2, 4, 8, ... Measured on
+/// factor is below that only where `rho` is above 0.937 (the quadratic model predicted the
+/// step's decrease within about 6 %, or the cost fell by more than predicted) and reaches this
+/// floor above 0.998. There the damping only slows the convergence along the weakly determined
+/// directions of the scaled Gauss-Newton matrix (the damping ratio `mu / (lambda + mu)` of an
+/// eigenvalue `lambda` is what is left of the step there). A rejected step still multiplies the damping by 2, 4, 8, ... Measured on
 /// the refinements of twenty analyzer and five held 10-hit paper-case-1 campaigns (1 % noise),
 /// in Jacobian-evaluation equivalents (a cost-only evaluation a quarter, one without the
 /// weights' derivative two thirds):
