@@ -872,7 +872,9 @@ fn tile_sums_sse2<const P: usize, const Q: usize>(
     a: &[&[[f64; TILE_ROWS]]; P],
     b: &[&[[f64; TILE_ROWS]]; Q],
 ) -> [[[f64; TILE_ROWS]; Q]; P] {
-    use std::arch::x86_64::{__m128d, _mm_add_pd, _mm_mul_pd, _mm_set_pd, _mm_setzero_pd};
+    use std::arch::x86_64::{
+        __m128d, _mm_add_pd, _mm_cvtsd_f64, _mm_mul_pd, _mm_set_pd, _mm_setzero_pd, _mm_unpackhi_pd,
+    };
     let groups = a.first().map_or(0, |c| c.len());
     let mut acc: [[__m128d; Q]; P] = [[_mm_setzero_pd(); Q]; P];
     for g in 0..groups {
@@ -884,14 +886,8 @@ fn tile_sums_sse2<const P: usize, const Q: usize>(
             }
         }
     }
-    acc.map(|row| {
-        row.map(|v| {
-            let mut lanes = [0.0; TILE_ROWS];
-            // Two f64 lanes into two f64: the same bits.
-            lanes.copy_from_slice(&unsafe { std::mem::transmute::<__m128d, [f64; 2]>(v) });
-            lanes
-        })
-    })
+    // The two lanes out of each vector (the low one, then the high one moved down).
+    acc.map(|row| row.map(|v| [_mm_cvtsd_f64(v), _mm_cvtsd_f64(_mm_unpackhi_pd(v, v))]))
 }
 
 /// The lanes' sums of a tile (see the x86-64 version): the same sums in the same order.
