@@ -1007,6 +1007,7 @@ impl FrfRefiner {
             step_tolerance: self.step_tolerance,
             cost_tolerance: self.cost_tolerance,
             decrease_tolerance: 0.0,
+            damping_floor: lm::NIELSEN_FLOOR,
         };
         let loose = lm::Settings {
             gradient_tolerance: self.gradient_tolerance.max(LOOSE_TOLERANCE),

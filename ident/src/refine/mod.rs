@@ -797,6 +797,7 @@ impl Refiner {
             step_tolerance: self.step_tolerance,
             cost_tolerance: self.cost_tolerance,
             decrease_tolerance: STATISTICAL_TOLERANCE,
+            damping_floor: lm::DAMPING_DECREASE_FLOOR,
         };
         // Before the last noise update a run only gives the residuals of the noise fit.
         let loose = lm::Settings {

@@ -765,6 +765,7 @@ fn tail_step_ends_where_the_full_run_goes() {
         step_tolerance: 0.0,
         cost_tolerance: 0.0,
         decrease_tolerance: 1e-5,
+        damping_floor: lm::NIELSEN_FLOOR,
     };
     for (curved, start) in [
         (false, [1.0, 2.0]),
