@@ -279,21 +279,29 @@ fn subtract_nuisance(jtx_h: &[f64], xtx_inv: &DMatrix<f64>, t: &mut [f64], jtj: 
     }
 }
 
+/// Hit `slot`'s rows of a block's `np` Jacobian columns (column `p` at `p * cap`, each hit's
+/// `seg` rows one after another).
+fn hit_columns(jb: &[f64], np: usize, cap: usize, slot: usize, seg: usize) -> Vec<&[f64]> {
+    (0..np)
+        .map(|p| &jb[p * cap + slot * seg..p * cap + (slot + 1) * seg])
+        .collect()
+}
+
 /// Adds one hit's share of a block to `J^T J` (upper triangle, row-major, `np` x `np`),
-/// `J^T X` (`np` x `s`, row-major) and, with `r`, `J^T r`: the products of its Jacobian
-/// columns `j` (`np` of them) with themselves, the transient regressors `x` and the residual,
-/// in pairs of Jacobian columns against all the others from the pair's first on
-/// ([`cross_products`]); `out` is scratch.
+/// `J^T X` (`np` x `s`, row-major) and, with a residual `r`, `J^T r` (`jtr`, given with it):
+/// the products of its Jacobian columns `j` (`np` of them) with themselves, the transient
+/// regressors `x` and the residual, in pairs of Jacobian columns against all the others from
+/// the pair's first on ([`cross_products`]); `out` is scratch.
 fn reduce_hit(
     j: &[&[f64]],
     x: &[&[f64]],
-    r: Option<&[f64]>,
+    mut residual: Option<(&[f64], &mut [f64])>,
     out: &mut Vec<f64>,
     jtj: &mut [f64],
     jtx: &mut [f64],
-    jtr: &mut [f64],
 ) {
     let (np, s) = (j.len(), x.len());
+    let r = residual.as_ref().map(|(r, _)| *r);
     let partners: Vec<&[f64]> = j.iter().chain(x).copied().chain(r).collect();
     for p0 in (0..np).step_by(2) {
         let pair = &j[p0..(p0 + 2).min(np)];
@@ -313,7 +321,7 @@ fn reduce_hit(
             {
                 *t += v;
             }
-            if r.is_some() {
+            if let Some((_, jtr)) = residual.as_mut() {
                 jtr[p] += row[np - p0 + s];
             }
         }
@@ -1175,32 +1183,26 @@ pub(crate) fn evaluate(
             let xcols: Vec<&[f64]> = (0..s)
                 .map(|q| &xreal[q * rows + first..q * rows + first + seg])
                 .collect();
+            let cols = |jb, slot| hit_columns(jb, np, cap, slot, seg);
             let mut out = Vec::new();
             for slot in 0..hits_here {
-                fn cols(jb: &[f64], np: usize, cap: usize, at: usize, seg: usize) -> Vec<&[f64]> {
-                    (0..np)
-                        .map(|p| &jb[p * cap + at..p * cap + at + seg])
-                        .collect()
-                }
                 let r_seg = &rs[slot * rows + first..slot * rows + first + seg];
                 reduce_hit(
-                    &cols(jblk, np, cap, slot * seg, seg),
+                    &cols(jblk, slot),
                     &xcols,
-                    Some(r_seg),
+                    Some((r_seg, &mut sums.jtr[slot * np..(slot + 1) * np])),
                     &mut out,
                     &mut sums.jtj,
                     &mut sums.jtx[slot * np * s..(slot + 1) * np * s],
-                    &mut sums.jtr[slot * np..(slot + 1) * np],
                 );
                 if second {
                     reduce_hit(
-                        &cols(jblk2, np, cap, slot * seg, seg),
+                        &cols(jblk2, slot),
                         &xcols,
                         None,
                         &mut out,
                         &mut sums.jtj2,
                         &mut sums.jtx2[slot * np * s..(slot + 1) * np * s],
-                        &mut [],
                     );
                 }
             }

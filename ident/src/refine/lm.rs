@@ -46,8 +46,8 @@ pub(crate) const NIELSEN_FLOOR: f64 = 1.0 / 3.0;
 /// step's decrease within about 6 %, or the cost fell by more than predicted) and reaches this
 /// floor above 0.998. There the damping only slows the convergence along the weakly determined
 /// directions of the scaled Gauss-Newton matrix (the damping ratio `mu / (lambda + mu)` of an
-/// eigenvalue `lambda` is what is left of the step there). A rejected step still multiplies the damping by 2, 4, 8, ... Measured on
-/// the refinements of twenty analyzer and five held 10-hit paper-case-1 campaigns (1 % noise),
+/// eigenvalue `lambda` is what is left of the step there). A rejected step still multiplies
+/// the damping by 2, 4, 8, ... Measured on the refinements of twenty analyzer and five held 10-hit paper-case-1 campaigns (1 % noise),
 /// in Jacobian-evaluation equivalents (a cost-only evaluation a quarter, one without the
 /// weights' derivative two thirds):
 ///
@@ -69,6 +69,12 @@ pub(crate) const NIELSEN_FLOOR: f64 = 1.0 / 3.0;
 /// (5.41, 5.29, 5.00 kg against 5.91, 5.23, 5.03) with standard errors five to twenty times
 /// larger, a worse point of that misspecified model's cost.
 pub(crate) const DAMPING_DECREASE_FLOOR: f64 = 0.01;
+
+/// Nielsen's update of the damping `mu` after an accepted step whose actual decrease is `rho`
+/// times the predicted one: `mu max(floor, 1 - (2 rho - 1)^3)`.
+fn decreased_damping(mu: f64, rho: f64, floor: f64) -> f64 {
+    mu * (1.0 - (2.0 * rho - 1.0).powi(3)).max(floor)
+}
 
 /// Regularization of the scaled Gauss-Newton matrix (unit diagonal) when the full step's
 /// predicted decrease is computed.
@@ -251,7 +257,7 @@ fn iterate<E, F: FnMut(&DVector<f64>) -> Option<(f64, E)>>(
                             && (point.cost - cost - predicted).abs() <= threshold =>
                     {
                         let rho = (point.cost - cost) / predicted;
-                        mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(settings.damping_floor);
+                        mu = decreased_damping(mu, rho, settings.damping_floor);
                         theta = candidate;
                         ended = Some(TailPoint { cost, extra });
                         break StopReason::Cost;
@@ -271,7 +277,7 @@ fn iterate<E, F: FnMut(&DVector<f64>) -> Option<(f64, E)>>(
                 let old_cost = point.cost;
                 theta = candidate;
                 point = trial;
-                mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(settings.damping_floor);
+                mu = decreased_damping(mu, rho, settings.damping_floor);
                 nu = 2.0;
                 for i in 0..p {
                     scale[i] = scale[i].max(point.fisher[(i, i)].max(0.0).sqrt());

@@ -756,22 +756,28 @@ fn toy_fit(curved: bool) -> impl Fn(&DVector<f64>) -> Option<lm::Point<()>> {
 
 /// The tail step ends a run at the point `minimize` ends at (the same steps up to it), with
 /// one full evaluation fewer when the quadratic model is accurate; when it is not, the
-/// point is evaluated in full and the run goes on as `minimize` does.
+/// point is evaluated in full and the run goes on as `minimize` does. With both damping
+/// floors: the FRF refinement's and the refinement from records'.
 #[test]
 fn tail_step_ends_where_the_full_run_goes() {
-    let settings = lm::Settings {
-        max_iterations: 100,
-        gradient_tolerance: 0.0,
-        step_tolerance: 0.0,
-        cost_tolerance: 0.0,
-        decrease_tolerance: 1e-5,
-        damping_floor: lm::NIELSEN_FLOOR,
-    };
-    for (curved, start) in [
-        (false, [1.0, 2.0]),
-        (true, [1.0, 2.0]),
-        (true, [10.0, 0.05]),
-    ] {
+    for (damping_floor, curved, start) in [lm::NIELSEN_FLOOR, lm::DAMPING_DECREASE_FLOOR]
+        .into_iter()
+        .flat_map(|floor| {
+            [
+                (floor, false, [1.0, 2.0]),
+                (floor, true, [1.0, 2.0]),
+                (floor, true, [10.0, 0.05]),
+            ]
+        })
+    {
+        let settings = lm::Settings {
+            max_iterations: 100,
+            gradient_tolerance: 0.0,
+            step_tolerance: 0.0,
+            cost_tolerance: 0.0,
+            decrease_tolerance: 1e-5,
+            damping_floor,
+        };
         let fit = toy_fit(curved);
         let theta0 = DVector::from_row_slice(&start);
         let seen = std::cell::RefCell::new(Vec::new());
