@@ -89,6 +89,19 @@ pub mod statespace;
 
 #[cfg(test)]
 mod testutil;
+
+/// Runs `op` on a thread of rayon's global pool (at once if this is one). A refinement runs
+/// a few dozen short parallel passes; started from outside the pool, each would hand its
+/// work to the pool and put the caller to sleep until it is done (two context switches per
+/// pass), while from a pool thread the caller takes part in the pass. The arithmetic is the
+/// same on any thread.
+pub(crate) fn on_pool<R: Send>(op: impl FnOnce() -> R + Send) -> R {
+    if rayon::current_thread_index().is_some() {
+        op()
+    } else {
+        rayon::scope(|_| op())
+    }
+}
 pub use campaign::Campaign;
 pub use era::{Correlation, Era, EraError, EraParams, ModelOrder};
 pub use frf::{Frf, FrfError, FrfQuantity};

@@ -717,26 +717,33 @@ pub(crate) fn evaluate(
 
         #[cfg(test)]
         let r0s = rs.clone();
-        // Transients by least squares, projected residuals.
+        // Transients by least squares, projected residuals: hits in parallel, each the same
+        // arithmetic whatever the thread, their costs added in hit order below.
         let xtx_inv = spd_inverse(&xtx);
-        let mut xtv = vec![0.0; s];
-        let mut sol = vec![0.0; s];
-        let mut correction = vec![0.0; s];
-        for (slot, &h) in group.hits.iter().enumerate() {
-            let rv = &mut rs[slot * rows..(slot + 1) * rows];
-            xt_mul(rv, &mut xtv);
-            inv_mul(&xtx_inv, &xtv, &mut sol);
-            sub_x(rv, &sol);
-            // One step of iterative refinement: the normal equations square the condition
-            // number, and the gradient J^T r is exact only for r orthogonal to X.
-            xt_mul(rv, &mut xtv);
-            inv_mul(&xtx_inv, &xtv, &mut correction);
-            sub_x(rv, &correction);
-            for (a, c) in sol.iter_mut().zip(&correction) {
-                *a += c;
-            }
-            cost += rv.iter().map(|v| v * v).sum::<f64>();
-            xi[h] = DVector::from_column_slice(&sol);
+        let projected: Vec<(f64, Vec<f64>)> = rs
+            .par_chunks_mut(rows)
+            .map(|rv| {
+                let mut xtv = vec![0.0; s];
+                let mut sol = vec![0.0; s];
+                let mut correction = vec![0.0; s];
+                xt_mul(rv, &mut xtv);
+                inv_mul(&xtx_inv, &xtv, &mut sol);
+                sub_x(rv, &sol);
+                // One step of iterative refinement: the normal equations square the
+                // condition number, and the gradient J^T r is exact only for r orthogonal
+                // to X.
+                xt_mul(rv, &mut xtv);
+                inv_mul(&xtx_inv, &xtv, &mut correction);
+                sub_x(rv, &correction);
+                for (a, c) in sol.iter_mut().zip(&correction) {
+                    *a += c;
+                }
+                (rv.iter().map(|v| v * v).sum::<f64>(), sol)
+            })
+            .collect();
+        for ((hit_cost, sol), &h) in projected.into_iter().zip(&group.hits) {
+            cost += hit_cost;
+            xi[h] = DVector::from_vec(sol);
         }
         if !cost.is_finite() {
             return Err(Singular);
@@ -752,21 +759,27 @@ pub(crate) fn evaluate(
         }
 
         if let Some(res) = residuals.as_mut() {
-            for (slot, &h) in group.hits.iter().enumerate() {
-                let rv = &rs[slot * rows..(slot + 1) * rows];
-                let mut out = DMatrix::zeros(m, nb);
-                for (bi, bin) in group.bins.iter().enumerate() {
-                    let l = cache.get(bi, |b| &b.l, m * m);
-                    let sc = sc_of(bin);
-                    for i in 0..m {
-                        let mut v = ZERO;
-                        for k in 0..=i {
-                            let ro = row(bi, m, k);
-                            v += l[i + k * m] * C64::new(rv[ro], rv[ro + 1]);
+            // Unwhitened residuals, hits in parallel (each the same arithmetic).
+            let unwhitened: Vec<DMatrix<C64>> = rs
+                .par_chunks(rows)
+                .map(|rv| {
+                    let mut out = DMatrix::zeros(m, nb);
+                    for (bi, bin) in group.bins.iter().enumerate() {
+                        let l = cache.get(bi, |b| &b.l, m * m);
+                        let sc = sc_of(bin);
+                        for i in 0..m {
+                            let mut v = ZERO;
+                            for k in 0..=i {
+                                let ro = row(bi, m, k);
+                                v += l[i + k * m] * C64::new(rv[ro], rv[ro + 1]);
+                            }
+                            out[(i, bi)] = v / sc;
                         }
-                        out[(i, bi)] = v / sc;
                     }
-                }
+                    out
+                })
+                .collect();
+            for (out, &h) in unwhitened.into_iter().zip(&group.hits) {
                 res[h] = out;
             }
         }
@@ -1442,24 +1455,25 @@ pub(crate) fn estimate_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit)
             }
         }
         for &h in &group.hits {
-            let res = &residuals[h];
-            for bi in 0..nb {
-                for i in 0..m {
-                    cells[first + bi * m + i].q_sum += res[(i, bi)].norm_sqr() / group.len as f64;
-                }
+            // Column-major m x nb: bin `bi`, channel `i` at `i + bi m`, the cells' order.
+            let res = residuals[h].as_slice();
+            for (cell, e) in cells[first..].iter_mut().zip(res) {
+                cell.q_sum += e.norm_sqr() / group.len as f64;
             }
         }
     }
     let unknowns = m + if estimate_inputs { r } else { 0 };
-    let regressor = |i: usize, gi: usize, bi: usize, out: &mut [f64]| {
-        out.fill(0.0);
-        out[i] = 1.0;
+    // Each cell's regressor, `unknowns` values: its channel's unit entry and, with the
+    // force noise, the gains `|G_il|^2`.
+    let mut regressors = vec![0.0; cells.len() * unknowns];
+    for (cell, x) in cells.iter().zip(regressors.chunks_exact_mut(unknowns)) {
+        x[cell.channel] = 1.0;
         if estimate_inputs {
             for l in 0..r {
-                out[m + l] = gains[gi][(i + l * m, bi)];
+                x[m + l] = gains[cell.group][(cell.channel + l * m, cell.bin)];
             }
         }
-    };
+    }
     // Start: output noise only, channel means.
     let mut theta = vec![0.0; unknowns];
     let mut counts = vec![0.0; m];
@@ -1470,13 +1484,13 @@ pub(crate) fn estimate_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit)
     for i in 0..m {
         theta[i] /= counts[i].max(1.0);
     }
-    let mut x = vec![0.0; unknowns];
     let mut active = vec![true; unknowns];
+    let mut ata_sums = vec![0.0; unknowns * unknowns];
     for _ in 0..30 {
-        let mut ata = DMatrix::<f64>::zeros(unknowns, unknowns);
+        // Normal equations, row-major, summed over the cells in order.
+        ata_sums.fill(0.0);
         let mut atb = DVector::<f64>::zeros(unknowns);
-        for cell in &cells {
-            regressor(cell.channel, cell.group, cell.bin, &mut x);
+        for (cell, x) in cells.iter().zip(regressors.chunks_exact(unknowns)) {
             let v: f64 = x.iter().zip(&theta).map(|(a, b)| a * b).sum();
             let w = 1.0 / (v * v).max(f64::MIN_POSITIVE);
             let (wq, wn) = (w * cell.q_sum, w * cell.count);
@@ -1485,13 +1499,15 @@ pub(crate) fn estimate_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit)
                     continue;
                 }
                 atb[a] += wq * x[a];
+                let row = &mut ata_sums[a * unknowns..(a + 1) * unknowns];
                 for b in 0..unknowns {
                     if active[b] {
-                        ata[(a, b)] += wn * x[a] * x[b];
+                        row[b] += wn * x[a] * x[b];
                     }
                 }
             }
         }
+        let mut ata = DMatrix::from_row_slice(unknowns, unknowns, &ata_sums);
         for a in 0..unknowns {
             if !active[a] {
                 ata[(a, a)] = 1.0;

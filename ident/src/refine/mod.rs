@@ -732,6 +732,16 @@ impl Refiner {
         dt_s: f64,
         initial: &SecondOrder,
     ) -> Result<Refinement, RefineError> {
+        crate::on_pool(|| self.refine_on_pool(records, dt_s, initial))
+    }
+
+    /// [`Refiner::refine`], on a thread of rayon's pool.
+    fn refine_on_pool(
+        &self,
+        records: &[Record],
+        dt_s: f64,
+        initial: &SecondOrder,
+    ) -> Result<Refinement, RefineError> {
         initial.assert_shapes();
         let n = initial.dofs();
         for (matrix, value) in [
