@@ -726,10 +726,13 @@ impl ValidIdentifier {
         self.identify_decomposed(decomposed)
     }
 
-    /// Runs the whole chain on `records`.
+    /// Runs the whole chain on `records` (on a thread of rayon's pool: see
+    /// `ident::on_pool`).
     pub fn identify(&self, records: &[Record], dt_s: f64) -> Result<Identification, Error> {
-        let decomposed = self.decompose(records, dt_s)?;
-        self.identify_decomposed(decomposed)
+        crate::on_pool(|| {
+            let decomposed = self.decompose(records, dt_s)?;
+            self.identify_decomposed(decomposed)
+        })
     }
 
     /// Order choice, modal analysis, MKR and Rayleigh after OKID and ERA.

@@ -732,6 +732,7 @@ impl Refiner {
         dt_s: f64,
         initial: &SecondOrder,
     ) -> Result<Refinement, RefineError> {
+        // See `ident::on_pool`.
         crate::on_pool(|| self.refine_on_pool(records, dt_s, initial))
     }
 
@@ -962,6 +963,17 @@ impl Refiner {
     /// noise-free responses are computed from `truth` as the records would be acquired
     /// (exact held simulation, or band-limited convolution). Panics on inconsistent shapes.
     pub fn cramer_rao(
+        &self,
+        truth: &SecondOrder,
+        dt_s: f64,
+        inputs: &[DMatrix<f64>],
+        noise: &NoiseLevels,
+    ) -> Result<Uncertainty, RefineError> {
+        crate::on_pool(|| self.cramer_rao_on_pool(truth, dt_s, inputs, noise))
+    }
+
+    /// [`Refiner::cramer_rao`], on a thread of rayon's pool.
+    fn cramer_rao_on_pool(
         &self,
         truth: &SecondOrder,
         dt_s: f64,
