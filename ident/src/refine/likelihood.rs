@@ -720,7 +720,27 @@ pub(crate) fn evaluate(
         // Transients by least squares, projected residuals: hits in parallel, each the same
         // arithmetic whatever the thread, their costs added in hit order below.
         let xtx_inv = spd_inverse(&xtx);
-        let projected: Vec<(f64, Vec<f64>)> = rs
+        // The unwhitened residuals of a projected hit, if kept.
+        let keep = residuals.is_some();
+        let unwhiten = |rv: &[f64]| {
+            let mut out = DMatrix::zeros(m, nb);
+            for (bi, bin) in group.bins.iter().enumerate() {
+                let l = cache.get(bi, |b| &b.l, m * m);
+                let sc = sc_of(bin);
+                for i in 0..m {
+                    let mut v = ZERO;
+                    for k in 0..=i {
+                        let ro = row(bi, m, k);
+                        v += l[i + k * m] * C64::new(rv[ro], rv[ro + 1]);
+                    }
+                    out[(i, bi)] = v / sc;
+                }
+            }
+            out
+        };
+        // One parallel pass per hit (fewer hand-overs between the threads than one pass
+        // for the projection and another for the residuals).
+        let projected: Vec<(f64, Vec<f64>, Option<DMatrix<C64>>)> = rs
             .par_chunks_mut(rows)
             .map(|rv| {
                 let mut xtv = vec![0.0; s];
@@ -738,12 +758,16 @@ pub(crate) fn evaluate(
                 for (a, c) in sol.iter_mut().zip(&correction) {
                     *a += c;
                 }
-                (rv.iter().map(|v| v * v).sum::<f64>(), sol)
+                let hit_cost = rv.iter().map(|v| v * v).sum::<f64>();
+                (hit_cost, sol, keep.then(|| unwhiten(rv)))
             })
             .collect();
-        for ((hit_cost, sol), &h) in projected.into_iter().zip(&group.hits) {
+        for ((hit_cost, sol, unwhitened), &h) in projected.into_iter().zip(&group.hits) {
             cost += hit_cost;
             xi[h] = DVector::from_vec(sol);
+            if let (Some(res), Some(out)) = (residuals.as_mut(), unwhitened) {
+                res[h] = out;
+            }
         }
         if !cost.is_finite() {
             return Err(Singular);
@@ -756,32 +780,6 @@ pub(crate) fn evaluate(
                 x,
                 j: None,
             };
-        }
-
-        if let Some(res) = residuals.as_mut() {
-            // Unwhitened residuals, hits in parallel (each the same arithmetic).
-            let unwhitened: Vec<DMatrix<C64>> = rs
-                .par_chunks(rows)
-                .map(|rv| {
-                    let mut out = DMatrix::zeros(m, nb);
-                    for (bi, bin) in group.bins.iter().enumerate() {
-                        let l = cache.get(bi, |b| &b.l, m * m);
-                        let sc = sc_of(bin);
-                        for i in 0..m {
-                            let mut v = ZERO;
-                            for k in 0..=i {
-                                let ro = row(bi, m, k);
-                                v += l[i + k * m] * C64::new(rv[ro], rv[ro + 1]);
-                            }
-                            out[(i, bi)] = v / sc;
-                        }
-                    }
-                    out
-                })
-                .collect();
-            for (out, &h) in unwhitened.into_iter().zip(&group.hits) {
-                res[h] = out;
-            }
         }
 
         // Pass 2: Jacobian with respect to the parameters at fixed transients, reduced on
