@@ -886,7 +886,7 @@ impl Refiner {
         let mut iterations = outcome.iterations;
         let mut noise_updates = 0;
         fit.estimate_inputs = matches!(self.noise, NoiseModel::Estimate);
-        let initial_cost = loop {
+        loop {
             let (new, last) = match &self.noise {
                 NoiseModel::Known(levels) => (
                     Noise {
@@ -907,20 +907,12 @@ impl Refiner {
                 }
             };
             noise = new;
-            if last {
-                // The cost of the initial guess under the final noise levels (reported
-                // beside the refined one) alongside the last run: work for an idle thread.
-                let (ran, initial) = rayon::join(
-                    || run(outcome.theta.clone(), &noise, outcome.damping, true),
-                    || problem.evaluate(&theta0, &noise, Want::Cost, false),
-                );
-                outcome = ran?;
-                iterations += outcome.iterations;
-                break initial?.cost;
-            }
-            outcome = run(outcome.theta.clone(), &noise, outcome.damping, false)?;
+            outcome = run(outcome.theta.clone(), &noise, outcome.damping, last)?;
             iterations += outcome.iterations;
-        };
+            if last {
+                break;
+            }
+        }
         let theta = outcome.theta;
         let model = problem.model(&theta, true)?;
         let (cost, mut last, gauss_newton) = match outcome.end {
@@ -941,6 +933,7 @@ impl Refiner {
             _ => problem.expected_fisher(&model, &noise)?,
         };
         let uncertainty = uncertainty::uncertainty(&problem.params, &model, fisher)?;
+        let initial_cost = problem.evaluate(&theta0, &noise, Want::Cost, false)?.cost;
         Ok(Refinement {
             mass: model.mass.clone(),
             stiffness: model.stiffness.clone(),
