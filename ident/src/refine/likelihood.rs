@@ -450,6 +450,13 @@ thread_local! {
     pub(crate) static CACHE_LIMIT: std::cell::Cell<usize> = const { std::cell::Cell::new(CACHE_BYTES) };
 }
 
+#[cfg(test)]
+thread_local! {
+    /// Groups evaluated without the full cache on this thread (tests check that the
+    /// recomputing path ran).
+    pub(crate) static RECOMPUTED_GROUPS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
 fn cache_bytes() -> usize {
     #[cfg(test)]
     return CACHE_LIMIT.with(|c| c.get());
@@ -584,6 +591,10 @@ pub(crate) fn evaluate(
         // Whitened, scaled residuals, `rows` values per hit (slot).
         let mut rs = vec![0.0; hits_here * rows];
         let full = Cache::full(&work, nb);
+        #[cfg(test)]
+        if !full {
+            RECOMPUTED_GROUPS.with(|c| c.set(c.get() + 1));
+        }
         let nblocks = nb.div_ceil(BLOCK_BINS);
         // Rows of one block in a column of `X` or a hit's residual.
         let block_rows = 2 * m * BLOCK_BINS;

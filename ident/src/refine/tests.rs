@@ -641,11 +641,30 @@ fn modal_gradients_match_central_differences() {
 
 /// Runs `f` on this thread with the likelihood's per-bin cache limited to `limit` bytes (0:
 /// every group recomputes its model in the Jacobian pass), then restores the previous limit.
+/// The limit is per thread: `f` must evaluate on this thread (a refinement called from
+/// outside rayon's pool moves to a pool thread; see [`on_a_pool_thread`]).
 fn with_cache_limit<T>(limit: usize, f: impl FnOnce() -> T) -> T {
     let previous = likelihood::CACHE_LIMIT.with(|c| c.replace(limit));
     let out = f();
     likelihood::CACHE_LIMIT.with(|c| c.set(previous));
     out
+}
+
+/// Runs `f` on a thread of a two-thread pool of its own, returning also how many groups it
+/// evaluated there without the full per-bin cache.
+fn on_a_pool_thread<T: Send>(f: impl FnOnce() -> T + Send) -> (T, usize) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        let before = likelihood::RECOMPUTED_GROUPS.with(|c| c.get());
+        let out = f();
+        (
+            out,
+            likelihood::RECOMPUTED_GROUPS.with(|c| c.get()) - before,
+        )
+    })
 }
 
 /// A group too large for the per-bin cache recomputes the model in the Jacobian pass: the
@@ -660,11 +679,20 @@ fn recomputed_bins_give_the_same_refinement() {
     for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
         let refiner = Refiner::default().intersample(intersample);
         let run = |limit: usize| {
-            with_cache_limit(limit, || refiner.refine(&records, DT, &initial).unwrap())
+            on_a_pool_thread(|| {
+                with_cache_limit(limit, || refiner.refine(&records, DT, &initial).unwrap())
+            })
         };
-        let cached = run(usize::MAX);
-        let recomputed = run(0);
+        let (cached, none) = run(usize::MAX);
+        let (recomputed, groups) = run(0);
         assert!(cached.iterations > 0);
+        // The limit took effect: every Jacobian evaluation's group recomputed, and none did
+        // with the full cache.
+        assert_eq!(none, 0, "{intersample:?}");
+        assert!(
+            groups > 0,
+            "{intersample:?}: the recomputing path did not run"
+        );
         // `Debug` prints every number in its shortest round-trip form: equal text is equal
         // bits.
         assert_eq!(
