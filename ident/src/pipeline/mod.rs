@@ -727,9 +727,9 @@ impl ValidIdentifier {
     }
 
     /// Runs the whole chain on `records` (on a thread of rayon's pool: see
-    /// `ident::on_pool`).
+    /// `ident::parallel::on_pool`).
     pub fn identify(&self, records: &[Record], dt_s: f64) -> Result<Identification, Error> {
-        crate::on_pool(|| {
+        crate::parallel::on_pool(|| {
             let decomposed = self.decompose(records, dt_s)?;
             self.identify_decomposed(decomposed)
         })

@@ -737,7 +737,7 @@ impl Refiner {
         dt_s: f64,
         initial: &SecondOrder,
     ) -> Result<Refinement, RefineError> {
-        // Short records: on a pool thread (see `ident::on_pool`). Long ones stay on the
+        // Short records: on a pool thread (see `ident::parallel::on_pool`). Long ones stay on the
         // caller's thread: their passes take milliseconds, so the hand-overs do not count,
         // and their large buffers then stay in the caller's allocation arena (on a pool
         // thread a 10^6-sample record's peak resident set rose from 274 to 282-292 MiB,
@@ -746,7 +746,7 @@ impl Refiner {
         if samples > POOL_HOP_MAX_SAMPLES {
             self.refine_here(records, dt_s, initial)
         } else {
-            crate::on_pool(|| self.refine_here(records, dt_s, initial))
+            crate::parallel::on_pool(|| self.refine_here(records, dt_s, initial))
         }
     }
 
@@ -983,7 +983,7 @@ impl Refiner {
         inputs: &[DMatrix<f64>],
         noise: &NoiseLevels,
     ) -> Result<Uncertainty, RefineError> {
-        crate::on_pool(|| self.cramer_rao_on_pool(truth, dt_s, inputs, noise))
+        crate::parallel::on_pool(|| self.cramer_rao_on_pool(truth, dt_s, inputs, noise))
     }
 
     /// [`Refiner::cramer_rao`], on a thread of rayon's pool.
