@@ -25,7 +25,7 @@ fn main() -> ExitCode {
         Command::Study(args) => to_stdout(|out| commands::study::run(&args, out)),
         Command::Simulate(args) => to_stdout(|out| commands::simulate::run(&args, out)),
         // Its checks, fits and error bars are many short parallel passes in rayon's global
-        // pool: they run best from a pool thread (ident::parallel::on_pool; 26.8 -> 25.4 ms
+        // pool: they run best from a pool thread (ident::parallel::on_pool; 26.8 -> 25.2 ms
         // for a 10-hit campaign with error bars).
         Command::Identify(args) => {
             ident::parallel::on_pool(|| to_stdout(|out| commands::identify::run(&args, out)))

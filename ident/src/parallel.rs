@@ -6,7 +6,8 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-/// Runs `op` on a thread of rayon's global pool (at once if this is one). A refinement runs
+/// Runs `op` on a thread of rayon's global pool (at once if the caller is a thread of a rayon
+/// pool, this one or another: a sweep's trials stay on their pool's threads). A refinement runs
 /// a few dozen short parallel passes; started from outside the pool, each would hand its
 /// work to the pool and put the caller to sleep until it is done (two context switches per
 /// pass), while from a pool thread the caller takes part in the pass. Unless another call

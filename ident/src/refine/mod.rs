@@ -737,11 +737,11 @@ impl Refiner {
         dt_s: f64,
         initial: &SecondOrder,
     ) -> Result<Refinement, RefineError> {
-        // Short records: on a pool thread (see `ident::parallel::on_pool`). Long ones stay on the
-        // caller's thread: their passes take milliseconds, so the hand-overs do not count,
-        // and their large buffers then stay in the caller's allocation arena (on a pool
-        // thread a 10^6-sample record's peak resident set rose from 274 to 282-292 MiB,
-        // the same time).
+        // Short records: on a pool thread (see `ident::parallel::on_pool`). Long ones stay
+        // on the caller's thread: their passes take milliseconds, so the hand-overs do not
+        // count, and their large buffers then stay in the caller's allocation arena (on a
+        // pool thread a 10^6-sample record's peak resident set rose from 274 to 282-292
+        // MiB, in the same time).
         let samples: usize = records.iter().map(Record::len).sum();
         if samples > POOL_HOP_MAX_SAMPLES {
             self.refine_here(records, dt_s, initial)
@@ -983,11 +983,11 @@ impl Refiner {
         inputs: &[DMatrix<f64>],
         noise: &NoiseLevels,
     ) -> Result<Uncertainty, RefineError> {
-        crate::parallel::on_pool(|| self.cramer_rao_on_pool(truth, dt_s, inputs, noise))
+        crate::parallel::on_pool(|| self.cramer_rao_here(truth, dt_s, inputs, noise))
     }
 
-    /// [`Refiner::cramer_rao`], on a thread of rayon's pool.
-    fn cramer_rao_on_pool(
+    /// [`Refiner::cramer_rao`] on the current thread.
+    fn cramer_rao_here(
         &self,
         truth: &SecondOrder,
         dt_s: f64,
