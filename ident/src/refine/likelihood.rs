@@ -749,8 +749,8 @@ pub(crate) fn evaluate(
             }
             out
         };
-        // One parallel pass per hit (fewer hand-overs between the threads than one pass
-        // for the projection and another for the residuals).
+        // Per hit, the projection and then (if kept) the unwhitened residuals, in one
+        // parallel pass over the hits.
         let projected: Vec<(f64, Vec<f64>, Option<DMatrix<C64>>)> = rs
             .par_chunks_mut(rows)
             .map(|rv| {

@@ -39,17 +39,16 @@ pub(crate) const INITIAL_DAMPING: f64 = 1e-3;
 /// [`DAMPING_DECREASE_FLOOR`]); the FRF refinement's.
 pub(crate) const NIELSEN_FLOOR: f64 = 1.0 / 3.0;
 
-/// Smallest factor of the damping update after an accepted step in the refinement from
-/// records (`crate::refine::Refiner`), `mu *= max(floor, 1 -
-/// (2 rho - 1)^3)` (`rho`: actual over predicted decrease). Nielsen's own floor is 1/3; the
-/// factor is below that only where `rho` is above 0.937 (the quadratic model predicted the
-/// step's decrease within about 6 %, or the cost fell by more than predicted) and reaches this
-/// floor above 0.998. There the damping only slows the convergence along the weakly determined
-/// directions of the scaled Gauss-Newton matrix (the damping ratio `mu / (lambda + mu)` of an
-/// eigenvalue `lambda` is what is left of the step there). A rejected step still multiplies
-/// the damping by 2, 4, 8, ... Measured on the refinements of twenty analyzer and five held 10-hit paper-case-1 campaigns (1 % noise),
-/// in Jacobian-evaluation equivalents (a cost-only evaluation a quarter, one without the
-/// weights' derivative two thirds):
+/// Smallest factor of the damping update after an accepted step in the refinement from records
+/// (`crate::refine::Refiner`), `mu *= max(floor, 1 - (2 rho - 1)^3)` (`rho`: actual over predicted
+/// decrease). Nielsen's own floor is 1/3; the factor is below that only where `rho` is above 0.937
+/// (the quadratic model predicted the step's decrease within about 6 %, or the cost fell by more
+/// than predicted) and reaches this floor above 0.998. There the damping only slows the convergence
+/// along the weakly determined directions of the scaled Gauss-Newton matrix (the damping ratio `mu
+/// / (lambda + mu)` of an eigenvalue `lambda` is what is left of the step there). A rejected step
+/// still multiplies the damping by 2, 4, 8, ... Measured on the refinements of twenty analyzer and
+/// five held 10-hit paper-case-1 campaigns (1 % noise), in Jacobian-evaluation equivalents (a
+/// cost-only evaluation a quarter, one without the weights' derivative two thirds):
 ///
 /// | floor | analyzer (20) | held (5) |
 /// |---|---|---|
@@ -57,17 +56,17 @@ pub(crate) const NIELSEN_FLOOR: f64 = 1.0 / 3.0;
 /// | 1/10 | 124.1 | 131.2 |
 /// | 1/100 | 107.4 (-30 %) | 143.9 (+6 %) |
 ///
-/// With 1/100 an analyzer campaign takes three or four evaluations with the Jacobian instead of
-/// six (`cJJcJcJFc` or `cJcJcJFc` in place of `cJJcJJcJJFc`: c cost only, J Jacobian, F without
-/// the weights' derivative). The refined parameters moved by at most 2.4e-3 of their standard
-/// deviations on the analyzer campaigns (their standard deviations by 1.3e-4 relative, the
-/// noise levels by 4.6e-4), and by at most 6.9e-2 on the held ones, whose alternation of noise
-/// fit and refinement stops farther from its fixed point (see
-/// [`super::NOISE_CHANGE_TOLERANCE`]: a fourth noise update moves them by 0.40). The FRF
-/// refinement (`crate::frf::refine`) keeps [`NIELSEN_FLOOR`]: with this floor its shear-frame
-/// fit of the measured Cristallo FRFs (`python/tests/test_frf.py`) ended at other floor masses
-/// (5.41, 5.29, 5.00 kg against 5.91, 5.23, 5.03) with standard errors five to twenty times
-/// larger, a worse point of that misspecified model's cost.
+/// With 1/100 an analyzer campaign takes three or four evaluations with the Jacobian instead of six
+/// (`cJJcJcJFc` or `cJcJcJFc` in place of `cJJcJJcJJFc`: c cost only, J Jacobian, F without the
+/// weights' derivative). The refined parameters moved by at most 2.4e-3 of their standard
+/// deviations on the analyzer campaigns (their standard deviations by 1.3e-4 relative, the noise
+/// levels by 4.6e-4), and by at most 6.9e-2 on the held ones, whose alternation of noise fit and
+/// refinement stops farther from its fixed point (see [`super::NOISE_CHANGE_TOLERANCE`]: a fourth
+/// noise update moves them by 0.40). The FRF refinement (`crate::frf::refine`) keeps
+/// [`NIELSEN_FLOOR`]: with this floor its shear-frame fit of the measured Cristallo FRFs
+/// (`tests/cli_frf.rs`, `python/tests/test_frf.py`) ended at other floor masses (5.41, 5.29, 5.00
+/// kg against 5.91, 5.23, 5.03) with standard errors five to twenty times larger, a worse point of
+/// that misspecified model's cost.
 pub(crate) const DAMPING_DECREASE_FLOOR: f64 = 0.01;
 
 /// Nielsen's update of the damping `mu` after an accepted step whose actual decrease is `rho`

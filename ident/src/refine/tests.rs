@@ -686,8 +686,8 @@ fn recomputed_bins_give_the_same_refinement() {
         let (cached, none) = run(usize::MAX);
         let (recomputed, groups) = run(0);
         assert!(cached.iterations > 0);
-        // The limit took effect: every Jacobian evaluation's group recomputed, and none did
-        // with the full cache.
+        // The limit took effect: groups were evaluated without the full cache under the
+        // zero limit, and none under the unlimited one.
         assert_eq!(none, 0, "{intersample:?}");
         assert!(
             groups > 0,
