@@ -333,8 +333,9 @@ fn reduce_hit(
 /// and the next): per hit `sum_q xi_q S_q + sum_t c_t W_t` with the real transient terms `S_q`
 /// and the complex terms `W_t`, both laid out per chunk of `LANES` parameters (`sw`: `s`
 /// terms per chunk, `ww`: `nc` terms per chunk of which the first `used` are used). `xis`
-/// holds the hits' transients (`s` each), `coefs` their complex coefficients (`nc` each). A
-/// chunk's sums stay in registers; each element is summed in term order.
+/// holds the hits' transients (`s` each), `coefs` their complex coefficients (`nc` each, so
+/// many hits as `coefs` holds; `s` is 0 when the transient terms are complex ones). A chunk's
+/// sums stay in registers; each element is summed in term order.
 fn hit_rows(
     (sw, s): (&[f64], usize),
     w: (&[f64], usize, usize),
@@ -363,7 +364,7 @@ fn hit_rows_with(
     (out, cap, seg, ro): (&mut [f64], usize, usize, usize),
     np: usize,
 ) {
-    let hits = xis.len() / s.max(1);
+    let hits = coefs.len() / nc.max(1);
     for c in 0..np.div_ceil(LANES) {
         let s_blk = &sw[c * s * 2 * LANES..(c + 1) * s * 2 * LANES];
         let w_blk = &ww[c * nc * 2 * LANES..(c * nc + used) * 2 * LANES];
@@ -434,6 +435,20 @@ fn row(bi: usize, m: usize, i: usize) -> usize {
 /// (whole chunks, no remainder loops; the padding is never stored).
 const LANES: usize = 2;
 
+/// Rows of a group's realified residual from which a hit's projection is split across the
+/// threads when the group has fewer hits than threads (a 10^6-sample record has 1.5 million),
+/// and the rows of one part. On that record the projection took about 25 instead of 43 ms an
+/// evaluation (two threads).
+const SPLIT_PROJECTION_ROWS: usize = 1 << 16;
+
+/// Hits of a group up to which the Jacobian pass treats the transient terms per hit (see
+/// `few` in [`evaluate`]). Measured on paper-case-1 campaigns of 2^17-sample hits (`frameid
+/// identify --refine --no-uncertainty`, one thread, medians of three runs, the per-hit form for
+/// every group against none): 3.8 % and 3.3 % faster with one and two hits, 0.6 %, 1.0 % and
+/// 2.0 % slower with three, four and six. On a 10^6-sample record (one hit) the Jacobian pass
+/// took about 225 instead of 250 ms an evaluation (two threads).
+const FEW_HITS: usize = 2;
+
 /// Bins whose Jacobian rows are reduced together (bounds the memory of long records).
 pub(crate) const BLOCK_BINS: usize = 64;
 
@@ -455,6 +470,31 @@ thread_local! {
     /// Groups evaluated without the full cache on this thread (tests check that the
     /// recomputing path ran).
     pub(crate) static RECOMPUTED_GROUPS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+#[cfg(test)]
+thread_local! {
+    /// [`FEW_HITS`] in tests, changed to run either form of the transient terms on the same
+    /// data.
+    pub(crate) static FEW_HITS_LIMIT: std::cell::Cell<usize> = const { std::cell::Cell::new(FEW_HITS) };
+    /// [`SPLIT_PROJECTION_ROWS`] in tests, lowered to split the projections of small data.
+    pub(crate) static SPLIT_ROWS: std::cell::Cell<usize> = const { std::cell::Cell::new(SPLIT_PROJECTION_ROWS) };
+    /// Groups whose projections were split on this thread (tests check that they were).
+    pub(crate) static SPLIT_GROUPS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+fn few_hits() -> usize {
+    #[cfg(test)]
+    return FEW_HITS_LIMIT.with(|c| c.get());
+    #[cfg(not(test))]
+    FEW_HITS
+}
+
+fn split_rows() -> usize {
+    #[cfg(test)]
+    return SPLIT_ROWS.with(|c| c.get());
+    #[cfg(not(test))]
+    SPLIT_PROJECTION_ROWS
 }
 
 fn cache_bytes() -> usize {
@@ -708,16 +748,43 @@ pub(crate) fn evaluate(
                 cache.get(bi, |b| &b.g, m * r)[idx].norm_sqr()
             }));
         }
+        // A hit's projection runs on one thread when the group has hits enough to keep the
+        // threads busy; a group of fewer hits (a long record is one) splits each hit's passes
+        // instead: the columns' dot products over the columns, the updates and the unwhitened
+        // residuals over blocks of rows or bins. Every value is the same arithmetic either way.
+        let part = split_rows().max(2 * m);
+        let split = hits_here < rayon::current_num_threads() && rows >= part;
+        #[cfg(test)]
+        if split {
+            SPLIT_GROUPS.with(|c| c.set(c.get() + 1));
+        }
         let xt_mul = |v: &[f64], out: &mut [f64]| {
-            for (q, o) in out.iter_mut().enumerate() {
-                *o = dot(&xreal[q * rows..(q + 1) * rows], v);
+            let col = |q: usize| dot(&xreal[q * rows..(q + 1) * rows], v);
+            if split {
+                out.par_iter_mut()
+                    .enumerate()
+                    .for_each(|(q, o)| *o = col(q));
+            } else {
+                for (q, o) in out.iter_mut().enumerate() {
+                    *o = col(q);
+                }
             }
         };
         let sub_x = |v: &mut [f64], sol: &[f64]| {
-            for (q, &sq) in sol.iter().enumerate() {
-                for (a, &x) in v.iter_mut().zip(&xreal[q * rows..(q + 1) * rows]) {
-                    *a -= x * sq;
+            let update = |start: usize, v: &mut [f64]| {
+                for (q, &sq) in sol.iter().enumerate() {
+                    let x = &xreal[q * rows + start..q * rows + start + v.len()];
+                    for (a, &x) in v.iter_mut().zip(x) {
+                        *a -= x * sq;
+                    }
                 }
+            };
+            if split {
+                v.par_chunks_mut(part)
+                    .enumerate()
+                    .for_each(|(c, v)| update(c * part, v));
+            } else {
+                update(0, v);
             }
         };
         let inv_mul = |inv: &DMatrix<f64>, v: &[f64], out: &mut [f64]| {
@@ -735,17 +802,29 @@ pub(crate) fn evaluate(
         let keep = residuals.is_some();
         let unwhiten = |rv: &[f64]| {
             let mut out = DMatrix::zeros(m, nb);
-            for (bi, bin) in group.bins.iter().enumerate() {
-                let l = cache.get(bi, |b| &b.l, m * m);
-                let sc = sc_of(bin);
-                for i in 0..m {
-                    let mut v = ZERO;
-                    for k in 0..=i {
-                        let ro = row(bi, m, k);
-                        v += l[i + k * m] * C64::new(rv[ro], rv[ro + 1]);
+            let fill = |b0: usize, out: &mut [C64]| {
+                for (lb, o) in out.chunks_exact_mut(m).enumerate() {
+                    let bi = b0 + lb;
+                    let l = cache.get(bi, |b| &b.l, m * m);
+                    let sc = sc_of(&group.bins[bi]);
+                    for (i, o) in o.iter_mut().enumerate() {
+                        let mut v = ZERO;
+                        for k in 0..=i {
+                            let ro = row(bi, m, k);
+                            v += l[i + k * m] * C64::new(rv[ro], rv[ro + 1]);
+                        }
+                        *o = v / sc;
                     }
-                    out[(i, bi)] = v / sc;
                 }
+            };
+            if split {
+                let bins = part / (2 * m);
+                out.as_mut_slice()
+                    .par_chunks_mut(bins * m)
+                    .enumerate()
+                    .for_each(|(c, o)| fill(c * bins, o));
+            } else {
+                fill(0, out.as_mut_slice());
             }
             out
         };
@@ -834,9 +913,16 @@ pub(crate) fn evaluate(
             .flat_map(|&h| xi[h].iter().copied())
             .collect();
         let mut jtr = vec![0.0; hits_here * np];
-        // Complex terms of row `i`: the `r` inputs and, with the weight derivative, the
-        // whitened residuals `0..=i`; real terms: the `s` transient components.
-        let nc = r + if weight_derivative { m } else { 0 };
+        // With few hits per group (a long record), the transient terms enter each hit's rows
+        // as `s` complex terms, `-sc L^-1 (dC + C R dA_d)` with the coefficients `R z xi`
+        // (`s^2` per hit), instead of real ones with the coefficients `xi`, whose weights are
+        // `s` times as many products per bin: the same rows, summed in another order.
+        let few = hits_here <= few_hits();
+        let tc = if few { s } else { 0 };
+        // Complex terms of row `i`: the transient terms (few hits), the `r` inputs and, with
+        // the weight derivative, the whitened residuals `0..=i`; real terms: the `s`
+        // transient components (more hits).
+        let nc = tc + r + if weight_derivative { m } else { 0 };
         // Per term, the real parts of the parameters' weights followed by the imaginary
         // parts (`2 npp` values).
         let np2 = 2 * npp;
@@ -1077,7 +1163,17 @@ pub(crate) fn evaluate(
                 for (v, r) in rz.iter_mut().zip(res) {
                     *v = r * bin.z;
                 }
-                for i in 0..m {
+                for i in (0..m).filter(|_| few) {
+                    for q in 0..s {
+                        for p in 0..npp {
+                            let a = (i * s + q) * npp + p;
+                            let at = ww_at(i, q, p);
+                            ww[at] = ma_re[a] * -sc;
+                            ww[at + LANES] = ma_im[a] * -sc;
+                        }
+                    }
+                }
+                for i in (0..m).filter(|_| !few) {
                     let (mre, mim) = (
                         &ma_re[i * row_len..(i + 1) * row_len],
                         &ma_im[i * row_len..(i + 1) * row_len],
@@ -1119,7 +1215,7 @@ pub(crate) fn evaluate(
                         let o = (i * r + t) * npp;
                         for p in 0..npp {
                             let w = dg[o + p] * -sc;
-                            let at = ww_at(i, t, p);
+                            let at = ww_at(i, tc + t, p);
                             ww[at] = w.re;
                             ww[at + LANES] = w.im;
                         }
@@ -1146,23 +1242,34 @@ pub(crate) fn evaluate(
                                         + bw[i + li * m] * aw[j + li * m].conj();
                                 }
                                 let w = if i == j { sij * 0.5 } else { sij } * -sc;
-                                let at = ww_at(i, r + j, p);
+                                let at = ww_at(i, tc + r + j, p);
                                 ww[at] = w.re;
                                 ww[at + LANES] = w.im;
                             }
                         }
                     }
                 }
-                let complex_terms = |i: usize| r + if weight_derivative { i + 1 } else { 0 };
+                let complex_terms = |i: usize| tc + r + if weight_derivative { i + 1 } else { 0 };
                 // Rows of this bin in the block: hit `slot`, output `i`, real and imaginary.
                 for (slot, &h) in group.hits.iter().enumerate() {
                     let u = &spectra.u[h].as_slice()[bi * r..(bi + 1) * r];
                     let rv = &rs[slot * rows + 2 * bi * m..slot * rows + 2 * (bi + 1) * m];
                     let coef = &mut coefs[slot * nc..(slot + 1) * nc];
-                    coef[..r].copy_from_slice(u);
+                    if few {
+                        // `R z xi`, the transient terms' coefficients.
+                        let xi = &xis[slot * s..(slot + 1) * s];
+                        for (q, c) in coef[..s].iter_mut().enumerate() {
+                            let mut v = ZERO;
+                            for (q2, &x) in xi.iter().enumerate() {
+                                v += rz[q + q2 * s] * x;
+                            }
+                            *c = v;
+                        }
+                    }
+                    coef[tc..tc + r].copy_from_slice(u);
                     if weight_derivative {
                         for i in 0..m {
-                            coef[r + i] = C64::new(rv[2 * i], rv[2 * i + 1]) / sc;
+                            coef[tc + r + i] = C64::new(rv[2 * i], rv[2 * i + 1]) / sc;
                         }
                     }
                 }
@@ -1172,7 +1279,7 @@ pub(crate) fn evaluate(
                     let ww_i = &ww[i * chunks * nc * 2 * LANES..(i + 1) * chunks * nc * 2 * LANES];
                     let ro = (bi - b0) * 2 * m + 2 * i;
                     hit_rows(
-                        (sw_i, s),
+                        (sw_i, s - tc),
                         (ww_i, nc, complex_terms(i)),
                         &xis,
                         coefs,
@@ -1190,8 +1297,8 @@ pub(crate) fn evaluate(
                     }
                     if second {
                         hit_rows(
-                            (sw_i, s),
-                            (ww_i, nc, r),
+                            (sw_i, s - tc),
+                            (ww_i, nc, tc + r),
                             &xis,
                             coefs,
                             (jblk2, cap, seg, ro),

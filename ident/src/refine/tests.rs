@@ -747,6 +747,137 @@ fn likelihood_is_the_same_for_any_thread_count() {
     }
 }
 
+/// Evaluates with `likelihood::FEW_HITS_LIMIT` at `limit` on this thread.
+fn with_few_hits<T>(limit: usize, f: impl FnOnce() -> T) -> T {
+    let previous = likelihood::FEW_HITS_LIMIT.with(|c| c.replace(limit));
+    let out = f();
+    likelihood::FEW_HITS_LIMIT.with(|c| c.set(previous));
+    out
+}
+
+/// With few hits in a group the Jacobian pass puts the transient terms into each hit's rows
+/// as complex terms with the coefficients `R z xi`: the same Jacobian as the per-bin form,
+/// summed in another order. Pass 1 is not touched (cost, transients and residuals bit for
+/// bit); the matrices agree to rounding (held and band-limited, noisy force, the per-bin cache
+/// on and off).
+#[test]
+fn few_hit_transient_terms_match_the_per_bin_form() {
+    let (m, k, r) = testkit::paper_case1().into_parts();
+    let mut rng = ChaCha8Rng::seed_from_u64(13);
+    let data_model = held_model(&m, &k, &r);
+    let records = random_records(&data_model, &mut rng, 3, 512, 0.02);
+    let noise = Noise {
+        outputs: vec![0.02, 0.03],
+        inputs: vec![0.01],
+    };
+    for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
+        let refiner = Refiner::default().intersample(intersample);
+        let problem = refiner.problem(&records, DT, 2).unwrap();
+        let (theta, _) = param::project(&problem.params, &m, &k, &r.map(|v| v * 1.3));
+        for cache in [usize::MAX, 0] {
+            let run = |few: usize| {
+                with_cache_limit(cache, || {
+                    with_few_hits(few, || {
+                        problem
+                            .evaluate(&theta, &noise, Want::JacobianAndFisher, true)
+                            .unwrap()
+                    })
+                })
+            };
+            let (per_bin, per_hit) = (run(0), run(3));
+            assert_eq!(
+                format!(
+                    "{:?} {:?} {:?}",
+                    per_bin.cost, per_bin.xi, per_bin.residuals
+                ),
+                format!(
+                    "{:?} {:?} {:?}",
+                    per_hit.cost, per_hit.xi, per_hit.residuals
+                ),
+            );
+            let relative = |a: &Option<DMatrix<f64>>, b: &Option<DMatrix<f64>>| {
+                let (a, b) = (a.as_ref().unwrap(), b.as_ref().unwrap());
+                (a - b).norm() / a.norm()
+            };
+            let fisher = relative(&per_bin.fisher, &per_hit.fisher);
+            let expected = relative(&per_bin.expected_fisher, &per_hit.expected_fisher);
+            // The gradient on its own scale per parameter, sqrt(F_pp cost) (the gradient
+            // cosine's denominator): at the projected solution it is a sum of cancelling terms.
+            let f = per_bin.fisher.as_ref().unwrap();
+            let (g0, g1) = (
+                per_bin.gradient.as_ref().unwrap(),
+                per_hit.gradient.as_ref().unwrap(),
+            );
+            let gradient = (0..g0.len())
+                .map(|p| (g0[p] - g1[p]).abs() / (f[(p, p)] * per_bin.cost).sqrt())
+                .fold(0.0, f64::max);
+            println!(
+                "{intersample:?}, cache limit {cache}: Fisher {fisher:.1e}, expected {expected:.1e}, gradient {gradient:.1e}"
+            );
+            // Rounding only: measured up to 1.4e-16 (matrices) and 2.4e-17 (gradient), and
+            // 1e-12 leaves room for other platforms' rounding. A wrong term is far larger (the
+            // coefficients with `R z` transposed: 2.4e6 and 87).
+            assert!(
+                fisher < 1e-12 && expected < 1e-12,
+                "{fisher:e} {expected:e}"
+            );
+            assert!(gradient < 1e-12, "{gradient:e}");
+        }
+    }
+}
+
+/// A group of fewer hits than threads splits each hit's projection across the threads: the
+/// same arithmetic per value, so the same numbers bit for bit (one hit, held and band-limited,
+/// noisy force).
+#[test]
+fn split_projection_gives_the_same_numbers() {
+    let (m, k, r) = testkit::paper_case1().into_parts();
+    let mut rng = ChaCha8Rng::seed_from_u64(17);
+    let data_model = held_model(&m, &k, &r);
+    let records = random_records(&data_model, &mut rng, 1, 2048, 0.02);
+    let noise = Noise {
+        outputs: vec![0.02, 0.03],
+        inputs: vec![0.01],
+    };
+    for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
+        let refiner = Refiner::default().intersample(intersample);
+        let problem = refiner.problem(&records, DT, 2).unwrap();
+        let (theta, _) = param::project(&problem.params, &m, &k, &r.map(|v| v * 1.3));
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        // The threshold and the counter are per thread: set and read where the evaluation
+        // starts. Parts of 20 rows: several, the last one shorter.
+        let run = |rows: usize| {
+            pool.install(|| {
+                let previous = likelihood::SPLIT_ROWS.with(|c| c.replace(rows));
+                let before = likelihood::SPLIT_GROUPS.with(|c| c.get());
+                let ev = problem
+                    .evaluate(&theta, &noise, Want::JacobianAndFisher, true)
+                    .unwrap();
+                let split = likelihood::SPLIT_GROUPS.with(|c| c.get()) - before;
+                likelihood::SPLIT_ROWS.with(|c| c.set(previous));
+                (
+                    format!(
+                        "{:?} {:?} {:?} {:?} {:?} {:?}",
+                        ev.cost, ev.xi, ev.fisher, ev.gradient, ev.expected_fisher, ev.residuals
+                    ),
+                    split,
+                )
+            })
+        };
+        let (whole, none) = run(usize::MAX);
+        let (parts, split) = run(20);
+        assert_eq!(
+            (none, split),
+            (0, 1),
+            "{intersample:?}: the split did not run"
+        );
+        assert_eq!(whole, parts, "{intersample:?}");
+    }
+}
+
 /// A toy least-squares problem for the optimizer, whitened by its noise level (0.01): a cost
 /// near the number of points. `curved`: `y_i = a exp(-b t_i)`; otherwise the straight line
 /// `y_i = a + b t_i` (a quadratic cost, whose quadratic model is exact).
