@@ -18,7 +18,8 @@ interpreter, every result pickles, and every error raises :class:`Error` (a
 
 Functions: :func:`read_records`, :func:`identify`, :func:`identify_realization`,
 :func:`simulate`, :func:`bound`, :func:`sweep`, :func:`merge`, :func:`report`;
-the FRF route: :func:`frf`, :func:`read_frf`, :func:`identify_frf`.
+the FRF route: :func:`frf`, :func:`read_frf`, :func:`identify_frf`; threads:
+:func:`set_keep_awake`, :func:`keep_awake`.
 Classes: :class:`Campaign`, :class:`Identification` (with :class:`Mode`,
 :class:`Uncertainty`, :class:`Refined`, :class:`RefinedMode`), :class:`Truth`,
 :class:`Bound`, :class:`Sweep`; :class:`FrfSet` (and :class:`FrfResult`),
@@ -47,10 +48,12 @@ from ._native import (
     identify,
     identify_frf,
     identify_realization,
+    keep_awake,
     merge,
     read_frf,
     read_records,
     report,
+    set_keep_awake,
     simulate,
     sweep,
 )
@@ -77,10 +80,12 @@ __all__ = [
     "identify",
     "identify_frf",
     "identify_realization",
+    "keep_awake",
     "merge",
     "read_frf",
     "read_records",
     "report",
+    "set_keep_awake",
     "simulate",
     "sweep",
 ]

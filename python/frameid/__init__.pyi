@@ -756,3 +756,11 @@ def merge(parts: Sequence[Sweep | _Path], *, out: _Path | None = None) -> Sweep:
 
 def report(sweeps: Sequence[Sweep | _Path], out: _Path, *, title: str = "frameid accuracy report") -> str:
     """`frameid report`: the HTML report of sweep directories."""
+
+def set_keep_awake(on: bool) -> None:
+    """Turn on or off (for the process) the second thread kept awake, spinning between
+    pieces of work, while an identification, refinement or bound runs; on by default. Off,
+    the calls take longer and give the same numbers."""
+
+def keep_awake() -> bool:
+    """Whether a second thread is kept awake while a call runs (:func:`set_keep_awake`)."""

@@ -131,6 +131,19 @@ fn _restore(py: Python<'_>, class: &str, state: &[u8]) -> PyResult<Py<PyAny>> {
     Ok(obj)
 }
 
+/// Turns on or off the second thread kept awake while a call runs
+/// (`ident::parallel::set_keep_awake`; on by default).
+#[pyfunction]
+fn set_keep_awake(on: bool) {
+    ident::parallel::set_keep_awake(on);
+}
+
+/// Whether a second thread is kept awake while a call runs.
+#[pyfunction]
+fn keep_awake() -> bool {
+    ident::parallel::keep_awake()
+}
+
 /// The native part of the `frameid` package.
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -138,6 +151,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("Error", py.get_type::<Error>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(_restore, m)?)?;
+    m.add_function(wrap_pyfunction!(set_keep_awake, m)?)?;
+    m.add_function(wrap_pyfunction!(keep_awake, m)?)?;
     campaign::register(m)?;
     frf::register(m)?;
     identification::register(m)?;

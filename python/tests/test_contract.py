@@ -287,3 +287,22 @@ def test_decimate_and_initial_state_as_on_the_command_line(case1):
         frameid.identify(camp, decimate=[2])
     with pytest.raises(frameid.Error, match="initial_state: expected auto, at-rest or unknown"):
         frameid.identify(camp, initial_state="sleeping")
+
+
+def test_keep_awake_switch_changes_no_number(case1, case1_refined):
+    # The second thread kept awake during a call only changes when the work
+    # is done: switched off, the identification and the refinement are the
+    # same numbers bit for bit.
+    camp, _ = case1
+    assert frameid.keep_awake()
+    frameid.set_keep_awake(False)
+    try:
+        assert not frameid.keep_awake()
+        again = frameid.identify(camp, refine=True)
+    finally:
+        frameid.set_keep_awake(True)
+    assert frameid.keep_awake()
+    for name in ("mass", "stiffness", "damping_mkr"):
+        assert np.array_equal(getattr(again, name), getattr(case1_refined, name))
+    for name in ("mass", "stiffness", "damping", "mass_std"):
+        assert np.array_equal(getattr(again.refined, name), getattr(case1_refined.refined, name))
