@@ -441,6 +441,10 @@ const LANES: usize = 2;
 /// evaluation (two threads).
 const SPLIT_PROJECTION_ROWS: usize = 1 << 16;
 
+/// Cells (channel and line) of one part of the noise fit's sums ([`estimate_noise`]): a part
+/// per thread's job; the 10^6-sample record's 750 002 cells make 46.
+const NOISE_PART_CELLS: usize = 1 << 14;
+
 /// Hits of a group up to which the Jacobian pass treats the transient terms per hit (see
 /// `few` in [`evaluate`]). Measured on paper-case-1 campaigns of 2^17-sample hits (`frameid
 /// identify --refine --no-uncertainty`, one thread, medians of three runs, the per-hit form for
@@ -479,6 +483,8 @@ thread_local! {
     pub(crate) static FEW_HITS_LIMIT: std::cell::Cell<usize> = const { std::cell::Cell::new(FEW_HITS) };
     /// [`SPLIT_PROJECTION_ROWS`] in tests, lowered to split the projections of small data.
     pub(crate) static SPLIT_ROWS: std::cell::Cell<usize> = const { std::cell::Cell::new(SPLIT_PROJECTION_ROWS) };
+    /// [`NOISE_PART_CELLS`] in tests, lowered to sum small data's noise fit in parts.
+    pub(crate) static NOISE_PART_LIMIT: std::cell::Cell<usize> = const { std::cell::Cell::new(NOISE_PART_CELLS) };
     /// Groups whose projections were split on this thread (tests check that they were).
     pub(crate) static SPLIT_GROUPS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
 }
@@ -495,6 +501,13 @@ fn split_rows() -> usize {
     return SPLIT_ROWS.with(|c| c.get());
     #[cfg(not(test))]
     SPLIT_PROJECTION_ROWS
+}
+
+fn noise_part_cells() -> usize {
+    #[cfg(test)]
+    return NOISE_PART_LIMIT.with(|c| c.get());
+    #[cfg(not(test))]
+    NOISE_PART_CELLS
 }
 
 fn cache_bytes() -> usize {
@@ -1601,13 +1614,13 @@ pub(crate) fn estimate_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit)
         theta[i] /= counts[i].max(1.0);
     }
     let mut active = vec![true; unknowns];
-    let mut ata_sums = vec![0.0; unknowns * unknowns];
-    for _ in 0..30 {
-        // Normal equations, row-major, summed over the cells in order.
-        ata_sums.fill(0.0);
-        let mut atb = DVector::<f64>::zeros(unknowns);
+    // One part's normal equations (row-major `ata`, then `atb`), summed over its cells in
+    // order.
+    let part_sums = |cells: &[Cell], regressors: &[f64], theta: &[f64], active: &[bool]| {
+        let mut sums = vec![0.0; unknowns * (unknowns + 1)];
+        let (ata, atb) = sums.split_at_mut(unknowns * unknowns);
         for (cell, x) in cells.iter().zip(regressors.chunks_exact(unknowns)) {
-            let v: f64 = x.iter().zip(&theta).map(|(a, b)| a * b).sum();
+            let v: f64 = x.iter().zip(theta).map(|(a, b)| a * b).sum();
             let w = 1.0 / (v * v).max(f64::MIN_POSITIVE);
             let (wq, wn) = (w * cell.q_sum, w * cell.count);
             for a in 0..unknowns {
@@ -1615,7 +1628,7 @@ pub(crate) fn estimate_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit)
                     continue;
                 }
                 atb[a] += wq * x[a];
-                let row = &mut ata_sums[a * unknowns..(a + 1) * unknowns];
+                let row = &mut ata[a * unknowns..(a + 1) * unknowns];
                 for b in 0..unknowns {
                     if active[b] {
                         row[b] += wn * x[a] * x[b];
@@ -1623,7 +1636,27 @@ pub(crate) fn estimate_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit)
                 }
             }
         }
-        let mut ata = DMatrix::from_row_slice(unknowns, unknowns, &ata_sums);
+        sums
+    };
+    let part = noise_part_cells().clamp(1, cells.len().max(1));
+    for _ in 0..30 {
+        // Normal equations summed over parts of the cells in parallel and the parts' sums
+        // added in order (the same numbers for any thread count). A campaign of one part
+        // (a 10-hit paper campaign has 1638 cells) sums its cells in order, as before parts.
+        let mut sums = vec![0.0; unknowns * (unknowns + 1)];
+        let parts: Vec<Vec<f64>> = cells
+            .par_chunks(part)
+            .zip(regressors.par_chunks(part * unknowns))
+            .map(|(c, x)| part_sums(c, x, &theta, &active))
+            .collect();
+        for p in &parts {
+            for (a, b) in sums.iter_mut().zip(p) {
+                *a += b;
+            }
+        }
+        let (ata_sums, atb) = sums.split_at(unknowns * unknowns);
+        let mut atb = DVector::from_column_slice(atb);
+        let mut ata = DMatrix::from_row_slice(unknowns, unknowns, ata_sums);
         for a in 0..unknowns {
             if !active[a] {
                 ata[(a, a)] = 1.0;
