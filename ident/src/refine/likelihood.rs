@@ -364,7 +364,12 @@ fn hit_rows_with(
     (out, cap, seg, ro): (&mut [f64], usize, usize, usize),
     np: usize,
 ) {
-    let hits = coefs.len() / nc.max(1);
+    // Per hit `s` transients (a constant in the common frames' calls) or, when the transient
+    // terms are complex ones (`s` 0), `nc` coefficients.
+    let hits = xis
+        .len()
+        .checked_div(s)
+        .unwrap_or_else(|| coefs.len() / nc.max(1));
     for c in 0..np.div_ceil(LANES) {
         let s_blk = &sw[c * s * 2 * LANES..(c + 1) * s * 2 * LANES];
         let w_blk = &ww[c * nc * 2 * LANES..(c * nc + used) * 2 * LANES];
@@ -1643,17 +1648,22 @@ pub(crate) fn estimate_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit)
         // Normal equations summed over parts of the cells in parallel and the parts' sums
         // added in order (the same numbers for any thread count). A campaign of one part
         // (a 10-hit paper campaign has 1638 cells) sums its cells in order, as before parts.
-        let mut sums = vec![0.0; unknowns * (unknowns + 1)];
-        let parts: Vec<Vec<f64>> = cells
-            .par_chunks(part)
-            .zip(regressors.par_chunks(part * unknowns))
-            .map(|(c, x)| part_sums(c, x, &theta, &active))
-            .collect();
-        for p in &parts {
-            for (a, b) in sums.iter_mut().zip(p) {
-                *a += b;
+        let sums = if cells.len() <= part {
+            part_sums(&cells, &regressors, &theta, &active)
+        } else {
+            let parts: Vec<Vec<f64>> = cells
+                .par_chunks(part)
+                .zip(regressors.par_chunks(part * unknowns))
+                .map(|(c, x)| part_sums(c, x, &theta, &active))
+                .collect();
+            let mut sums = vec![0.0; unknowns * (unknowns + 1)];
+            for p in &parts {
+                for (a, b) in sums.iter_mut().zip(p) {
+                    *a += b;
+                }
             }
-        }
+            sums
+        };
         let (ata_sums, atb) = sums.split_at(unknowns * unknowns);
         let mut atb = DVector::from_column_slice(atb);
         let mut ata = DMatrix::from_row_slice(unknowns, unknowns, ata_sums);
