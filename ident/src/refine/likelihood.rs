@@ -472,17 +472,6 @@ const CACHE_BYTES: usize = 64 << 20;
 thread_local! {
     /// [`CACHE_BYTES`] in tests, lowered to run the recomputing path on small data.
     pub(crate) static CACHE_LIMIT: std::cell::Cell<usize> = const { std::cell::Cell::new(CACHE_BYTES) };
-}
-
-#[cfg(test)]
-thread_local! {
-    /// Groups evaluated without the full cache on this thread (tests check that the
-    /// recomputing path ran).
-    pub(crate) static RECOMPUTED_GROUPS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
-}
-
-#[cfg(test)]
-thread_local! {
     /// [`FEW_HITS`] in tests, changed to run either form of the transient terms on the same
     /// data.
     pub(crate) static FEW_HITS_LIMIT: std::cell::Cell<usize> = const { std::cell::Cell::new(FEW_HITS) };
@@ -490,36 +479,23 @@ thread_local! {
     pub(crate) static SPLIT_ROWS: std::cell::Cell<usize> = const { std::cell::Cell::new(SPLIT_PROJECTION_ROWS) };
     /// [`NOISE_PART_CELLS`] in tests, lowered to sum small data's noise fit in parts.
     pub(crate) static NOISE_PART_LIMIT: std::cell::Cell<usize> = const { std::cell::Cell::new(NOISE_PART_CELLS) };
+    /// Groups evaluated without the full cache on this thread (tests check that the
+    /// recomputing path ran).
+    pub(crate) static RECOMPUTED_GROUPS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
     /// Groups whose projections were split on this thread (tests check that they were).
     pub(crate) static SPLIT_GROUPS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
 }
 
-fn few_hits() -> usize {
-    #[cfg(test)]
-    return FEW_HITS_LIMIT.with(|c| c.get());
-    #[cfg(not(test))]
-    FEW_HITS
-}
-
-fn split_rows() -> usize {
-    #[cfg(test)]
-    return SPLIT_ROWS.with(|c| c.get());
-    #[cfg(not(test))]
-    SPLIT_PROJECTION_ROWS
-}
-
-fn noise_part_cells() -> usize {
-    #[cfg(test)]
-    return NOISE_PART_LIMIT.with(|c| c.get());
-    #[cfg(not(test))]
-    NOISE_PART_CELLS
-}
-
-fn cache_bytes() -> usize {
-    #[cfg(test)]
-    return CACHE_LIMIT.with(|c| c.get());
-    #[cfg(not(test))]
-    CACHE_BYTES
+/// The constant `$value`; in tests the thread-local `$cell` that stands for it (set by a test
+/// to run a path on small data).
+macro_rules! tunable {
+    ($cell:ident, $value:expr) => {{
+        #[cfg(test)]
+        let value = $cell.with(|c| c.get());
+        #[cfg(not(test))]
+        let value = $value;
+        value
+    }};
 }
 
 /// Per-bin model quantities of a group, kept between the passes: all of
@@ -549,7 +525,8 @@ impl Cache {
             + work.qi.len()
             + work.g.len()
             + work.l.len();
-        nb.saturating_mul(per_bin * std::mem::size_of::<C64>()) <= cache_bytes()
+        nb.saturating_mul(per_bin * std::mem::size_of::<C64>())
+            <= tunable!(CACHE_LIMIT, CACHE_BYTES)
     }
 
     /// The quantity `pick` (`len` values per bin) of bin `bi`.
@@ -770,7 +747,7 @@ pub(crate) fn evaluate(
         // threads busy; a group of fewer hits (a long record is one) splits each hit's passes
         // instead: the columns' dot products over the columns, the updates and the unwhitened
         // residuals over blocks of rows or bins. Every value is the same arithmetic either way.
-        let part = split_rows().max(2 * m);
+        let part = tunable!(SPLIT_ROWS, SPLIT_PROJECTION_ROWS).max(2 * m);
         let split = hits_here < rayon::current_num_threads() && rows >= part;
         #[cfg(test)]
         if split {
@@ -935,7 +912,7 @@ pub(crate) fn evaluate(
         // as `s` complex terms, `-sc L^-1 (dC + C R dA_d)` with the coefficients `R z xi`
         // (`s^2` per hit), instead of real ones with the coefficients `xi`, whose weights are
         // `s` times as many products per bin: the same rows, summed in another order.
-        let few = hits_here <= few_hits();
+        let few = hits_here <= tunable!(FEW_HITS_LIMIT, FEW_HITS);
         let tc = if few { s } else { 0 };
         // Complex terms of row `i`: the transient terms (few hits), the `r` inputs and, with
         // the weight derivative, the whitened residuals `0..=i`; real terms: the `s`
@@ -1643,7 +1620,7 @@ pub(crate) fn estimate_noise(spectra: &Spectra, ev: &Evaluation, fit: &NoiseFit)
         }
         sums
     };
-    let part = noise_part_cells().clamp(1, cells.len().max(1));
+    let part = tunable!(NOISE_PART_LIMIT, NOISE_PART_CELLS).clamp(1, cells.len().max(1));
     for _ in 0..30 {
         // Normal equations summed over parts of the cells in parallel and the parts' sums
         // added in order (the same numbers for any thread count). A campaign of one part

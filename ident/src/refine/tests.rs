@@ -13,7 +13,10 @@ use rand::rngs::ChaCha8Rng;
 
 const DT: f64 = 1.0 / 64.0;
 
-fn three_storeys() -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+/// Mass, stiffness and damping matrices.
+type Matrices = (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>);
+
+fn three_storeys() -> Matrices {
     // Rayleigh plus an extra dashpot across storey 2, between floors 1 and 2
     // (non-proportional).
     testkit::ShearFrame::lumped(&[1.0, 0.9, 0.8], &[1000.0, 900.0, 800.0])
@@ -110,7 +113,7 @@ fn residual_at_fixed_xi(
 fn check_jacobian(
     intersample: Intersample,
     parametrization: Parametrization,
-    truth: (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>),
+    truth: Matrices,
     seed: u64,
 ) {
     check_jacobian_with_inputs(intersample, parametrization, truth, seed, &[0]);
@@ -119,7 +122,7 @@ fn check_jacobian(
 fn check_jacobian_with_inputs(
     intersample: Intersample,
     parametrization: Parametrization,
-    truth: (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>),
+    truth: Matrices,
     seed: u64,
     input_dofs: &[usize],
 ) {
@@ -639,15 +642,42 @@ fn modal_gradients_match_central_differences() {
     }
 }
 
-/// Runs `f` on this thread with the likelihood's per-bin cache limited to `limit` bytes (0:
-/// every group recomputes its model in the Jacobian pass), then restores the previous limit.
-/// The limit is per thread: `f` must evaluate on this thread (a refinement called from
-/// outside rayon's pool moves to a pool thread; see [`on_a_pool_thread`]).
-fn with_cache_limit<T>(limit: usize, f: impl FnOnce() -> T) -> T {
-    let previous = likelihood::CACHE_LIMIT.with(|c| c.replace(limit));
+/// A likelihood setting that tests change per thread (`likelihood::CACHE_LIMIT`, ...).
+type Setting = std::thread::LocalKey<std::cell::Cell<usize>>;
+
+/// Runs `f` on this thread with the likelihood's `setting` at `value` (for example
+/// `CACHE_LIMIT` at 0: every group recomputes its model in the Jacobian pass), then restores
+/// the previous value. The setting is per thread: `f` must evaluate on this thread (a
+/// refinement called from outside rayon's pool moves to a pool thread; see
+/// [`on_a_pool_thread`]).
+fn with_setting<T>(setting: &'static Setting, value: usize, f: impl FnOnce() -> T) -> T {
+    let previous = setting.with(|c| c.replace(value));
     let out = f();
-    likelihood::CACHE_LIMIT.with(|c| c.set(previous));
+    setting.with(|c| c.set(previous));
     out
+}
+
+/// Paper case 1's matrices and `hits` records of `len` samples of white-noise force through
+/// its exact held model with 2 % noise on every channel (`seed`), and noise levels with a
+/// noisy force for evaluating the likelihood on them.
+fn case1_records(seed: u64, hits: usize, len: usize) -> (Matrices, Vec<Record>, Noise) {
+    let (m, k, r) = testkit::paper_case1().into_parts();
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let records = random_records(&held_model(&m, &k, &r), &mut rng, hits, len, 0.02);
+    let noise = Noise {
+        outputs: vec![0.02, 0.03],
+        inputs: vec![0.01],
+    };
+    ((m, k, r), records, noise)
+}
+
+/// Every number of an evaluation as text: `Debug` prints each in its shortest round-trip
+/// form, so equal text is equal bits.
+fn all_bits(ev: &likelihood::Evaluation) -> String {
+    format!(
+        "{:?} {:?} {:?} {:?} {:?} {:?}",
+        ev.cost, ev.xi, ev.fisher, ev.gradient, ev.expected_fisher, ev.residuals
+    )
 }
 
 /// Runs `f` on a thread of a two-thread pool of its own, returning also how many groups it
@@ -671,16 +701,15 @@ fn on_a_pool_thread<T: Send>(f: impl FnOnce() -> T + Send) -> (T, usize) {
 /// same refinement, bit for bit (held and band-limited, noisy force).
 #[test]
 fn recomputed_bins_give_the_same_refinement() {
-    let (m, k, r) = testkit::paper_case1().into_parts();
-    let mut rng = ChaCha8Rng::seed_from_u64(7);
-    let data_model = held_model(&m, &k, &r);
-    let records = random_records(&data_model, &mut rng, 2, 512, 0.02);
+    let ((m, k, r), records, _) = case1_records(7, 2, 512);
     let initial = SecondOrder::new(m.map(|v| v * 1.01), k.map(|v| v * 0.99), r.map(|v| v * 1.5));
     for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
         let refiner = Refiner::default().intersample(intersample);
         let run = |limit: usize| {
             on_a_pool_thread(|| {
-                with_cache_limit(limit, || refiner.refine(&records, DT, &initial).unwrap())
+                with_setting(&likelihood::CACHE_LIMIT, limit, || {
+                    refiner.refine(&records, DT, &initial).unwrap()
+                })
             })
         };
         let (cached, none) = run(usize::MAX);
@@ -708,14 +737,7 @@ fn recomputed_bins_give_the_same_refinement() {
 /// [`likelihood::BLOCK_BINS`] bins, noisy force, the per-bin cache on and off).
 #[test]
 fn likelihood_is_the_same_for_any_thread_count() {
-    let (m, k, r) = testkit::paper_case1().into_parts();
-    let mut rng = ChaCha8Rng::seed_from_u64(11);
-    let data_model = held_model(&m, &k, &r);
-    let records = random_records(&data_model, &mut rng, 3, 1024, 0.02);
-    let noise = Noise {
-        outputs: vec![0.02, 0.03],
-        inputs: vec![0.01],
-    };
+    let ((m, k, r), records, noise) = case1_records(11, 3, 1024);
     for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
         let refiner = Refiner::default().intersample(intersample);
         let problem = refiner.problem(&records, DT, 2).unwrap();
@@ -728,31 +750,17 @@ fn likelihood_is_the_same_for_any_thread_count() {
                     .build()
                     .unwrap();
                 // The limit is per thread: set where the evaluation starts.
-                let ev = pool.install(|| {
-                    with_cache_limit(limit, || {
+                all_bits(&pool.install(|| {
+                    with_setting(&likelihood::CACHE_LIMIT, limit, || {
                         problem
                             .evaluate(&theta, &noise, Want::JacobianAndFisher, true)
                             .unwrap()
                     })
-                });
-                // `Debug` prints every number in its shortest round-trip form: equal text
-                // is equal bits.
-                format!(
-                    "{:?} {:?} {:?} {:?} {:?} {:?}",
-                    ev.cost, ev.xi, ev.fisher, ev.gradient, ev.expected_fisher, ev.residuals
-                )
+                }))
             };
             assert_eq!(on(1), on(3), "{intersample:?}, cache limit {limit}");
         }
     }
-}
-
-/// Evaluates with `likelihood::FEW_HITS_LIMIT` at `limit` on this thread.
-fn with_few_hits<T>(limit: usize, f: impl FnOnce() -> T) -> T {
-    let previous = likelihood::FEW_HITS_LIMIT.with(|c| c.replace(limit));
-    let out = f();
-    likelihood::FEW_HITS_LIMIT.with(|c| c.set(previous));
-    out
 }
 
 /// With few hits in a group the Jacobian pass puts the transient terms into each hit's rows
@@ -762,22 +770,15 @@ fn with_few_hits<T>(limit: usize, f: impl FnOnce() -> T) -> T {
 /// on and off).
 #[test]
 fn few_hit_transient_terms_match_the_per_bin_form() {
-    let (m, k, r) = testkit::paper_case1().into_parts();
-    let mut rng = ChaCha8Rng::seed_from_u64(13);
-    let data_model = held_model(&m, &k, &r);
-    let records = random_records(&data_model, &mut rng, 3, 512, 0.02);
-    let noise = Noise {
-        outputs: vec![0.02, 0.03],
-        inputs: vec![0.01],
-    };
+    let ((m, k, r), records, noise) = case1_records(13, 3, 512);
     for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
         let refiner = Refiner::default().intersample(intersample);
         let problem = refiner.problem(&records, DT, 2).unwrap();
         let (theta, _) = param::project(&problem.params, &m, &k, &r.map(|v| v * 1.3));
         for cache in [usize::MAX, 0] {
             let run = |few: usize| {
-                with_cache_limit(cache, || {
-                    with_few_hits(few, || {
+                with_setting(&likelihood::CACHE_LIMIT, cache, || {
+                    with_setting(&likelihood::FEW_HITS_LIMIT, few, || {
                         problem
                             .evaluate(&theta, &noise, Want::JacobianAndFisher, true)
                             .unwrap()
@@ -831,14 +832,7 @@ fn few_hit_transient_terms_match_the_per_bin_form() {
 /// noisy force).
 #[test]
 fn split_projection_gives_the_same_numbers() {
-    let (m, k, r) = testkit::paper_case1().into_parts();
-    let mut rng = ChaCha8Rng::seed_from_u64(17);
-    let data_model = held_model(&m, &k, &r);
-    let records = random_records(&data_model, &mut rng, 1, 2048, 0.02);
-    let noise = Noise {
-        outputs: vec![0.02, 0.03],
-        inputs: vec![0.01],
-    };
+    let ((m, k, r), records, noise) = case1_records(17, 1, 2048);
     for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
         let refiner = Refiner::default().intersample(intersample);
         let problem = refiner.problem(&records, DT, 2).unwrap();
@@ -851,20 +845,14 @@ fn split_projection_gives_the_same_numbers() {
         // starts. Parts of 20 rows: several, the last one shorter.
         let run = |rows: usize| {
             pool.install(|| {
-                let previous = likelihood::SPLIT_ROWS.with(|c| c.replace(rows));
                 let before = likelihood::SPLIT_GROUPS.with(|c| c.get());
-                let ev = problem
-                    .evaluate(&theta, &noise, Want::JacobianAndFisher, true)
-                    .unwrap();
+                let ev = with_setting(&likelihood::SPLIT_ROWS, rows, || {
+                    problem
+                        .evaluate(&theta, &noise, Want::JacobianAndFisher, true)
+                        .unwrap()
+                });
                 let split = likelihood::SPLIT_GROUPS.with(|c| c.get()) - before;
-                likelihood::SPLIT_ROWS.with(|c| c.set(previous));
-                (
-                    format!(
-                        "{:?} {:?} {:?} {:?} {:?} {:?}",
-                        ev.cost, ev.xi, ev.fisher, ev.gradient, ev.expected_fisher, ev.residuals
-                    ),
-                    split,
-                )
+                (all_bits(&ev), split)
             })
         };
         let (whole, none) = run(usize::MAX);
@@ -883,19 +871,12 @@ fn split_projection_gives_the_same_numbers() {
 /// sum in one pass to rounding (outputs and force estimated, parts of 7 cells).
 #[test]
 fn noise_fit_in_parts_matches_the_sum_in_one_pass() {
-    let (m, k, r) = testkit::paper_case1().into_parts();
-    let mut rng = ChaCha8Rng::seed_from_u64(19);
-    let data_model = held_model(&m, &k, &r);
-    let records = random_records(&data_model, &mut rng, 3, 1024, 0.02);
+    let ((m, k, r), records, noise) = case1_records(19, 3, 1024);
     let problem = Refiner::default()
         .intersample(Intersample::Bandlimited)
         .problem(&records, DT, 2)
         .unwrap();
     let (theta, _) = param::project(&problem.params, &m, &k, &r);
-    let noise = Noise {
-        outputs: vec![0.02, 0.03],
-        inputs: vec![0.01],
-    };
     let ev = problem.evaluate(&theta, &noise, Want::Cost, true).unwrap();
     let fit = likelihood::NoiseFit {
         m: 2,
@@ -911,10 +892,9 @@ fn noise_fit_in_parts_matches_the_sum_in_one_pass() {
             .build()
             .unwrap();
         pool.install(|| {
-            let previous = likelihood::NOISE_PART_LIMIT.with(|c| c.replace(cells));
-            let out = likelihood::estimate_noise(&problem.spectra, &ev, &fit);
-            likelihood::NOISE_PART_LIMIT.with(|c| c.set(previous));
-            out
+            with_setting(&likelihood::NOISE_PART_LIMIT, cells, || {
+                likelihood::estimate_noise(&problem.spectra, &ev, &fit)
+            })
         })
     };
     let whole = at(usize::MAX, 1);
