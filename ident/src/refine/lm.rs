@@ -139,16 +139,6 @@ pub(crate) struct TailOutcome<E> {
     pub stop: StopReason,
 }
 
-impl<E> End<E> {
-    /// The extra data of the last point.
-    pub(crate) fn extra(&self) -> &E {
-        match self {
-            End::Point(point) => &point.extra,
-            End::Tail(tail) => &tail.extra,
-        }
-    }
-}
-
 /// Like [`minimize`], for a run whose last point needs only its cost and `extra` (what
 /// `eval_tail` computes, cheaper than `eval`): a step whose quadratic model leaves at most the
 /// run's stop threshold of the decrease a full Gauss-Newton step would bring (`d - predicted`

@@ -642,15 +642,15 @@ fn modal_gradients_match_central_differences() {
     }
 }
 
-/// A likelihood setting that tests change per thread (`likelihood::CACHE_LIMIT`, ...).
-type Setting = std::thread::LocalKey<std::cell::Cell<usize>>;
+/// A setting that tests change per thread (`likelihood::CACHE_LIMIT`, ...).
+type Setting<V> = std::thread::LocalKey<std::cell::Cell<V>>;
 
 /// Runs `f` on this thread with the likelihood's `setting` at `value` (for example
 /// `CACHE_LIMIT` at 0: every group recomputes its model in the Jacobian pass), then restores
 /// the previous value. The setting is per thread: `f` must evaluate on this thread (a
 /// refinement called from outside rayon's pool moves to a pool thread; see
 /// [`on_a_pool_thread`]).
-fn with_setting<T>(setting: &'static Setting, value: usize, f: impl FnOnce() -> T) -> T {
+fn with_setting<V: Copy, T>(setting: &'static Setting<V>, value: V, f: impl FnOnce() -> T) -> T {
     let previous = setting.with(|c| c.replace(value));
     let out = f();
     setting.with(|c| c.set(previous));
@@ -729,6 +729,46 @@ fn recomputed_bins_give_the_same_refinement() {
             format!("{recomputed:?}"),
             "{intersample:?}"
         );
+    }
+}
+
+/// The refinement keeps the unwhitened residuals of a run's tail evaluation only, and
+/// evaluates a run that ended at a point with the Jacobian once more for them: the same
+/// refinement, bit for bit, as keeping every point's residuals (a run ending at its iteration
+/// limit, and runs ending at their tails; held and band-limited, noisy force).
+#[test]
+fn residuals_kept_only_where_used_give_the_same_refinement() {
+    let ((m, k, r), records, _) = case1_records(19, 3, 512);
+    let initial = SecondOrder::new(m.map(|v| v * 1.01), k.map(|v| v * 0.99), r.map(|v| v * 1.5));
+    for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
+        for iterations in [1, 50] {
+            let refiner = Refiner::default()
+                .intersample(intersample)
+                .max_iterations(iterations);
+            let run = |every: bool| {
+                on_a_pool_thread(|| {
+                    with_setting(&super::EVERY_RESIDUAL, every, || {
+                        let before = super::REEVALUATED_ENDS.with(|c| c.get());
+                        let out = refiner.refine(&records, DT, &initial).unwrap();
+                        (out, super::REEVALUATED_ENDS.with(|c| c.get()) - before)
+                    })
+                })
+                .0
+            };
+            let ((kept, _), (only_used, again)) = (run(true), run(false));
+            assert!(kept.noise_updates > 0, "{intersample:?}");
+            // One iteration a run: runs before the last end at their limit, on a point with
+            // the Jacobian (unless their one step was a tail step), and are evaluated again.
+            if iterations == 1 {
+                assert!(again > 0, "{intersample:?}: no run ended on a point");
+            }
+            println!("{intersample:?}, {iterations} iterations: {again} runs evaluated again");
+            assert_eq!(
+                format!("{kept:?}"),
+                format!("{only_used:?}"),
+                "{intersample:?}, {iterations} iterations"
+            );
+        }
     }
 }
 
