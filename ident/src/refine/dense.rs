@@ -98,12 +98,12 @@ pub(crate) fn invert(a: &mut [C64], n: usize, inv: &mut [C64]) -> bool {
 fn invert_order(a: &mut [C64], n: usize, inv: &mut [C64]) -> bool {
     let w = &mut inv[..n * n];
     w.copy_from_slice(&a[..n * n]);
-    let mut swaps = [0usize; MAX_ORDER];
+    let mut swaps = [0u8; MAX_ORDER];
     for k in 0..n {
         let Some(piv) = pivot(w, n, k) else {
             return false;
         };
-        swaps[k] = piv;
+        swaps[k] = piv as u8;
         if piv != k {
             for j in 0..n {
                 w.swap(k + j * n, piv + j * n);
@@ -130,7 +130,7 @@ fn invert_order(a: &mut [C64], n: usize, inv: &mut [C64]) -> bool {
         }
     }
     for k in (0..n).rev() {
-        let piv = swaps[k];
+        let piv = usize::from(swaps[k]);
         if piv != k {
             for i in 0..n {
                 w.swap(i + k * n, i + piv * n);
@@ -216,6 +216,20 @@ pub(crate) fn cholesky(a: &[C64], m: usize, l: &mut [C64]) -> bool {
 /// stored column-major in `x` (m x c). A diagonal with zero imaginary parts (every
 /// Cholesky factor of [`cholesky`]) is divided as real numbers.
 pub(crate) fn forward_solve(l: &[C64], m: usize, x: &mut [C64], c: usize) {
+    // The output counts of the common frames (two to four storeys) as constants, so that the
+    // loops unroll (the likelihood solves one right-hand side per hit and line): the same
+    // operations in the same order.
+    match m {
+        2 => forward_solve_order(l, 2, x, c),
+        3 => forward_solve_order(l, 3, x, c),
+        4 => forward_solve_order(l, 4, x, c),
+        _ => forward_solve_order(l, m, x, c),
+    }
+}
+
+/// [`forward_solve`] itself, inlined into each of its calls so that a constant `m` unrolls it.
+#[inline(always)]
+fn forward_solve_order(l: &[C64], m: usize, x: &mut [C64], c: usize) {
     let real_diagonal = (0..m).all(|i| l[i + i * m].im == 0.0);
     for col in 0..c {
         let x = &mut x[col * m..(col + 1) * m];
