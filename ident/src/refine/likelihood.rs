@@ -30,6 +30,7 @@ use crate::mkr::MatrixKind;
 use crate::modal::Intersample;
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use rayon::prelude::*;
+use std::sync::Arc;
 
 const ZERO: C64 = C64::new(0.0, 0.0);
 
@@ -80,6 +81,8 @@ pub(crate) struct Evaluation {
     pub residuals: Option<Vec<DMatrix<C64>>>,
     /// Per group, `|G_il|^2` (row `i + l m`) per bin, if residuals are kept.
     pub gains: Option<Vec<DMatrix<f64>>>,
+    /// The per-bin model, if every group kept it whole (see [`BinModels`]).
+    pub models: Option<BinModels>,
     /// Per hit, the realified whitened matrices before elimination (tests).
     #[cfg(test)]
     pub matrices: Vec<HitMatrices>,
@@ -141,7 +144,14 @@ impl BinWork {
         }
     }
 
+    /// The model and the weights at `bin`.
     fn compute(&mut self, model: &Model, bin: &Bin, noise: &Noise) -> Result<(), Singular> {
+        self.compute_model(model, bin)?;
+        self.compute_weights(noise)
+    }
+
+    /// The noise-independent part: the resolvent and its products, the FRF.
+    fn compute_model(&mut self, model: &Model, bin: &Bin) -> Result<(), Singular> {
         let (n, m, s, r) = (self.n, self.m, self.s, self.r);
         let ad = model.ad.as_slice();
         for (t, a) in self.tmp.iter_mut().zip(ad) {
@@ -187,6 +197,13 @@ impl BinWork {
         {
             return Err(Singular);
         }
+        Ok(())
+    }
+
+    /// The whitening factor `L` of `Sy + G Su G^H` from the FRF `g` (set by
+    /// [`BinWork::compute_model`] or copied from a kept [`ModelBlock`]).
+    fn compute_weights(&mut self, noise: &Noise) -> Result<(), Singular> {
+        let (m, r) = (self.m, self.r);
         if noise.errors_in_variables() {
             for j in 0..m {
                 for i in j..m {
@@ -506,14 +523,41 @@ struct Cache {
     blocks: Vec<CacheBlock>,
 }
 
-/// The cached quantities of one block's bins, one after another.
+/// The cached quantities of one block's bins: the model's, which do not depend on the noise
+/// (shared with later evaluations at the same parameters, see [`BinModels`]), and `L`.
 struct CacheBlock {
+    model: Arc<ModelBlock>,
+    l: Vec<C64>,
+}
+
+/// The noise-independent per-bin quantities of one block of a group's bins, one bin after
+/// another: `(z I - A_d)^-1`, `C (z I - A_d)^-1`, `(z I - A_d)^-1 B_d` and `Q^-1` if the group
+/// keeps everything (empty otherwise), and the FRF `G`.
+#[derive(Debug)]
+pub(crate) struct ModelBlock {
     res: Vec<C64>,
     cr: Vec<C64>,
     rb: Vec<C64>,
     qi: Vec<C64>,
     g: Vec<C64>,
-    l: Vec<C64>,
+}
+
+/// The noise-independent per-bin model of every group of an evaluation whose groups all keep
+/// everything (per group, per block). Given back to [`evaluate`] at the same parameters, its
+/// first pass computes only the weights: the same numbers (the same function of the same
+/// inputs), without the per-line inverses.
+pub(crate) type BinModels = Vec<Vec<Arc<ModelBlock>>>;
+
+/// Bytes held by `models`.
+pub(crate) fn model_bytes(models: &BinModels) -> usize {
+    models
+        .iter()
+        .flatten()
+        .map(|b| {
+            (b.res.len() + b.cr.len() + b.rb.len() + b.qi.len() + b.g.len())
+                * std::mem::size_of::<C64>()
+        })
+        .sum()
 }
 
 impl Cache {
@@ -535,7 +579,7 @@ impl Cache {
     }
 }
 
-impl CacheBlock {
+impl ModelBlock {
     fn new(work: &BinWork, bins: usize, full: bool) -> Self {
         let of = |len: usize| Vec::with_capacity(if full { bins * len } else { 0 });
         Self {
@@ -544,7 +588,6 @@ impl CacheBlock {
             rb: of(work.rb.len()),
             qi: of(work.qi.len()),
             g: Vec::with_capacity(bins * work.g.len()),
-            l: Vec::with_capacity(bins * work.l.len()),
         }
     }
 
@@ -556,7 +599,6 @@ impl CacheBlock {
             self.qi.extend_from_slice(&work.qi);
         }
         self.g.extend_from_slice(&work.g);
-        self.l.extend_from_slice(&work.l);
     }
 }
 
@@ -565,6 +607,9 @@ fn slice(v: &[C64], bi: usize, len: usize) -> &[C64] {
 }
 
 /// Evaluates the projected cost (and the Gauss-Newton matrix) at `model`.
+///
+/// `kept_models`: the [`Evaluation::models`] of an earlier evaluation at the same `model`
+/// (the same parameters), whose per-bin model is then not computed again.
 pub(crate) fn evaluate(
     model: &Model,
     params: &[Parameter],
@@ -572,6 +617,7 @@ pub(crate) fn evaluate(
     noise: &Noise,
     want: Want,
     keep_residuals: bool,
+    kept_models: Option<&BinModels>,
 ) -> Result<Evaluation, Singular> {
     let (n, r) = (model.n, model.r);
     let (m, s) = (n, 2 * n);
@@ -613,7 +659,10 @@ pub(crate) fn evaluate(
     // subtracted per hit and the lower triangle mirrored at the end.
     let mut jtj = vec![0.0; np * np];
     let mut jtj2 = vec![0.0; if second { np * np } else { 0 }];
-    for group in &spectra.groups {
+    // The evaluation's models, to be kept for the next one at the same parameters, while
+    // every group keeps everything.
+    let mut models_out: Option<BinModels> = Some(Vec::with_capacity(spectra.groups.len()));
+    for (gi, group) in spectra.groups.iter().enumerate() {
         let nb = group.bins.len();
         let rows = 2 * nb * m;
         let hits_here = group.hits.len();
@@ -630,6 +679,8 @@ pub(crate) fn evaluate(
         if !full {
             RECOMPUTED_GROUPS.with(|c| c.set(c.get() + 1));
         }
+        // Kept models are made by groups that keep everything, as this one then does.
+        let given = kept_models.map(|all| &all[gi]).filter(|_| full);
         let nblocks = nb.div_ceil(BLOCK_BINS);
         // Rows of one block in a column of `X` or a hit's residual.
         let block_rows = 2 * m * BLOCK_BINS;
@@ -658,13 +709,31 @@ pub(crate) fn evaluate(
             let mut e = vec![ZERO; m];
             let mut xtx_upper = vec![0.0; s * s];
             let end = (b0 + BLOCK_BINS).min(nb);
-            let mut cache = CacheBlock::new(&work, end - b0, full);
+            // The block's model as kept from an evaluation at the same parameters, or
+            // computed here.
+            let kept = given.map(|blocks| Arc::clone(&blocks[b0 / BLOCK_BINS]));
+            let mut made = kept
+                .is_none()
+                .then(|| ModelBlock::new(&work, end - b0, full));
+            let mut block_l = Vec::with_capacity((end - b0) * m * m);
             for (lb, bin) in group.bins[b0..end].iter().enumerate() {
                 let bi = b0 + lb;
-                work.compute(model, bin, noise)?;
-                cache.push(&work, full);
+                let cr = match (&kept, made.as_mut()) {
+                    (Some(kept), _) => {
+                        work.g.copy_from_slice(slice(&kept.g, lb, m * r));
+                        work.compute_weights(noise)?;
+                        slice(&kept.cr, lb, m * s)
+                    }
+                    (None, Some(made)) => {
+                        work.compute(model, bin, noise)?;
+                        made.push(&work, full);
+                        &work.cr[..]
+                    }
+                    (None, None) => unreachable!("a block's model is kept or made"),
+                };
+                block_l.extend_from_slice(&work.l);
                 let sc = sc_of(bin);
-                for (v, c) in tx.iter_mut().zip(&work.cr) {
+                for (v, c) in tx.iter_mut().zip(cr) {
                     *v = c * bin.z;
                 }
                 dense::forward_solve(&work.l, m, &mut tx, s);
@@ -708,7 +777,11 @@ pub(crate) fn evaluate(
                     }
                 }
             }
-            Ok((xtx_upper, cache))
+            let block = CacheBlock {
+                model: kept.unwrap_or_else(|| Arc::new(made.expect("made when not kept"))),
+                l: block_l,
+            };
+            Ok((xtx_upper, block))
         };
         let sums: Vec<Result<(Vec<f64>, CacheBlock), Singular>> = x_blocks
             .into_iter()
@@ -731,6 +804,12 @@ pub(crate) fn evaluate(
             }
             cache.blocks.push(block);
         }
+        if !full {
+            models_out = None;
+        }
+        if let Some(out) = models_out.as_mut() {
+            out.push(cache.blocks.iter().map(|b| Arc::clone(&b.model)).collect());
+        }
         let xtx = DMatrix::from_fn(s, s, |a, b| {
             if a <= b {
                 xtx_upper[a + b * s]
@@ -740,7 +819,7 @@ pub(crate) fn evaluate(
         });
         if let Some(all) = gains.as_mut() {
             all.push(DMatrix::from_fn(m * r, nb, |idx, bi| {
-                cache.get(bi, |b| &b.g, m * r)[idx].norm_sqr()
+                cache.get(bi, |b| &b.model.g, m * r)[idx].norm_sqr()
             }));
         }
         // A hit's projection runs on one thread when the group has hits enough to keep the
@@ -1021,17 +1100,17 @@ pub(crate) fn evaluate(
                 let bi = b0 + lb;
                 let (res, cr, rb, qi) = if cache.full {
                     (
-                        cache.get(bi, |b| &b.res, s * s),
-                        cache.get(bi, |b| &b.cr, m * s),
-                        cache.get(bi, |b| &b.rb, s * r),
-                        cache.get(bi, |b| &b.qi, n * n),
+                        cache.get(bi, |b| &b.model.res, s * s),
+                        cache.get(bi, |b| &b.model.cr, m * s),
+                        cache.get(bi, |b| &b.model.rb, s * r),
+                        cache.get(bi, |b| &b.model.qi, n * n),
                     )
                 } else {
                     // Succeeds: it did for this bin in pass 1.
                     work.compute(model, bin, noise)?;
                     (&work.res[..], &work.cr[..], &work.rb[..], &work.qi[..])
                 };
-                let g = cache.get(bi, |b| &b.g, m * r);
+                let g = cache.get(bi, |b| &b.model.g, m * r);
                 let l = cache.get(bi, |b| &b.l, m * m);
                 let sc = sc_of(bin);
                 // dT/dtheta_p (z I - A_d)^-1 with T = C (z I - A_d)^-1 z: `dC + C R dA_d`.
@@ -1420,6 +1499,7 @@ pub(crate) fn evaluate(
         gradient: has_jac.then_some(gradient),
         residuals,
         gains,
+        models: models_out,
         #[cfg(test)]
         matrices,
     })

@@ -127,6 +127,7 @@ use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 use spectra::Spectra;
 use std::fmt;
+use std::sync::Mutex;
 
 /// Mass, stiffness and damping matrices of a second-order model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -543,6 +544,51 @@ struct Problem {
     r: usize,
     observations: usize,
     unknowns: usize,
+    /// Per-bin models of earlier evaluations, by their parameters (see [`Memo`]).
+    memo: Mutex<Memo>,
+}
+
+/// The per-bin models of the first point evaluated and of the latest other one, which the
+/// refinement evaluates again: the start at unit noise, at its first weights and at the last
+/// ones (the initial cost), and every run's end again after a noise update. Kept while they
+/// take at most [`MEMO_BYTES`] together (so never for a long record, whose groups do not keep
+/// their models whole).
+#[derive(Default)]
+struct Memo {
+    entries: Vec<(DVector<f64>, likelihood::BinModels)>,
+}
+
+/// Largest memory the per-bin models of [`Memo`] take together (a 10-hit paper campaign's
+/// take about 0.5 MB a point).
+const MEMO_BYTES: usize = 64 << 20;
+
+impl Memo {
+    /// The models kept for `theta` (the same bits).
+    fn get(&self, theta: &DVector<f64>) -> Option<likelihood::BinModels> {
+        self.entries
+            .iter()
+            .find(|(t, _)| {
+                t.len() == theta.len()
+                    && t.iter()
+                        .zip(theta.iter())
+                        .all(|(a, b)| a.to_bits() == b.to_bits())
+            })
+            .map(|(_, models)| models.clone())
+    }
+
+    /// Keeps `models` of `theta`: the first point's for good, then the latest other one's.
+    fn keep(&mut self, theta: &DVector<f64>, models: likelihood::BinModels) {
+        let entry = (theta.clone(), models);
+        if self.entries.len() == 2 {
+            self.entries[1] = entry;
+        } else {
+            self.entries.push(entry);
+        }
+        let bytes = |e: &(DVector<f64>, likelihood::BinModels)| likelihood::model_bytes(&e.1);
+        while self.entries.iter().map(bytes).sum::<usize>() > MEMO_BYTES {
+            self.entries.pop();
+        }
+    }
 }
 
 impl Problem {
@@ -567,15 +613,24 @@ impl Problem {
         keep_residuals: bool,
     ) -> Result<likelihood::Evaluation, RefineError> {
         let model = self.model(theta, want != Want::Cost)?;
-        likelihood::evaluate(
+        let kept = self.memo.lock().expect("memo lock").get(theta);
+        let mut ev = likelihood::evaluate(
             &model,
             &self.params,
             &self.spectra,
             noise,
             want,
             keep_residuals,
+            kept.as_ref(),
         )
-        .map_err(|_| RefineError::SingularModel)
+        .map_err(|_| RefineError::SingularModel)?;
+        // Not kept with the evaluation (the minimizer holds points).
+        if let Some(models) = ev.models.take()
+            && kept.is_none()
+        {
+            self.memo.lock().expect("memo lock").keep(theta, models);
+        }
+        Ok(ev)
     }
 
     /// The expected Fisher information of `model` (built with derivatives) under `noise`:
@@ -590,6 +645,7 @@ impl Problem {
                 weight_derivative: false,
             },
             false,
+            None,
         )
         .map_err(|_| RefineError::SingularModel)?;
         Ok(ev.fisher.expect("Jacobian requested"))
@@ -725,6 +781,7 @@ impl Refiner {
             r: self.input_dofs.len(),
             observations,
             unknowns,
+            memo: Mutex::default(),
         })
     }
 

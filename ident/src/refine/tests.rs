@@ -416,6 +416,7 @@ fn fisher_of_a_free_decay_matches_the_closed_form() {
         intersample: Intersample::Zoh,
         n: 1,
         r: 1,
+        memo: Default::default(),
     };
     let theta = DVector::from_vec(vec![mass, stiffness, damping]);
     let noise = Noise {
@@ -769,6 +770,45 @@ fn residuals_kept_only_where_used_give_the_same_refinement() {
                 "{intersample:?}, {iterations} iterations"
             );
         }
+    }
+}
+
+/// An evaluation at parameters evaluated before reuses their per-bin model and computes only
+/// the weights: the same numbers, bit for bit, as a problem that never saw them (other noise
+/// levels, held and band-limited, several groups). Groups that do not keep their model whole
+/// keep nothing.
+#[test]
+fn kept_per_bin_models_give_the_same_evaluation() {
+    let ((m, k, r), mut records, noise) = case1_records(23, 3, 512);
+    // A shorter hit: a second group.
+    let (_, short, _) = case1_records(29, 1, 300);
+    records.extend(short);
+    let other = Noise {
+        outputs: vec![0.05, 0.01],
+        inputs: vec![0.02],
+    };
+    for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
+        let refiner = Refiner::default().intersample(intersample);
+        let (seen, fresh) = (
+            refiner.problem(&records, DT, 2).unwrap(),
+            refiner.problem(&records, DT, 2).unwrap(),
+        );
+        assert_eq!(seen.spectra.groups.len(), 2);
+        let (theta, _) = param::project(&seen.params, &m, &k, &r.map(|v| v * 1.3));
+        seen.evaluate(&theta, &noise, Want::Cost, false).unwrap();
+        assert!(seen.memo.lock().unwrap().get(&theta).is_some());
+        for want in [Want::Cost, Want::JacobianAndFisher] {
+            assert_eq!(
+                all_bits(&seen.evaluate(&theta, &other, want, true).unwrap()),
+                all_bits(&fresh.evaluate(&theta, &other, want, true).unwrap()),
+                "{intersample:?}, {want:?}"
+            );
+        }
+        let whole = refiner.problem(&records, DT, 2).unwrap();
+        with_setting(&likelihood::CACHE_LIMIT, 0, || {
+            whole.evaluate(&theta, &noise, Want::Cost, false).unwrap()
+        });
+        assert!(whole.memo.lock().unwrap().entries.is_empty());
     }
 }
 
