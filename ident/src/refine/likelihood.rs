@@ -352,33 +352,54 @@ fn reduce_hit(
 /// terms per chunk, `ww`: `nc` terms per chunk of which the first `used` are used). `xis`
 /// holds the hits' transients (`s` each), `coefs` their complex coefficients (`nc` each, so
 /// many hits as `coefs` holds; `s` is 0 when the transient terms are complex ones). A chunk's
-/// sums stay in registers; each element is summed in term order.
+/// sums stay in registers; each element is summed in term order. With `partial`, the sums
+/// after the first `k` complex terms are also written into `partial`'s columns (at the same
+/// rows): bit for bit the rows of a call with `k` terms used, as they are the same sums.
 fn hit_rows(
     (sw, s): (&[f64], usize),
     w: (&[f64], usize, usize),
     xis: &[f64],
     coefs: &[C64],
     out: (&mut [f64], usize, usize, usize),
+    partial: Option<(&mut [f64], usize)>,
     np: usize,
 ) {
     // The transient counts of the common frames (two to four storeys) as constants, so that
     // the loops over the transient terms unroll: the same operations in the same order.
     match s {
-        4 => hit_rows_with((sw, 4), w, xis, coefs, out, np),
-        6 => hit_rows_with((sw, 6), w, xis, coefs, out, np),
-        8 => hit_rows_with((sw, 8), w, xis, coefs, out, np),
-        _ => hit_rows_with((sw, s), w, xis, coefs, out, np),
+        4 => hit_rows_with((sw, 4), w, xis, coefs, out, partial, np),
+        6 => hit_rows_with((sw, 6), w, xis, coefs, out, partial, np),
+        8 => hit_rows_with((sw, 8), w, xis, coefs, out, partial, np),
+        _ => hit_rows_with((sw, s), w, xis, coefs, out, partial, np),
     }
 }
 
 /// [`hit_rows`] itself, inlined into each of its calls so that a constant `s` unrolls it.
 #[inline(always)]
 fn hit_rows_with(
+    sw: (&[f64], usize),
+    w: (&[f64], usize, usize),
+    xis: &[f64],
+    coefs: &[C64],
+    out: (&mut [f64], usize, usize, usize),
+    partial: Option<(&mut [f64], usize)>,
+    np: usize,
+) {
+    match partial {
+        Some((part, mid)) => rows_of::<true>(sw, w, xis, coefs, out, (part, mid), np),
+        None => rows_of::<false>(sw, w, xis, coefs, out, (&mut [], 0), np),
+    }
+}
+
+/// [`hit_rows`] with (`PARTIAL`) or without the partial sums.
+#[inline(always)]
+fn rows_of<const PARTIAL: bool>(
     (sw, s): (&[f64], usize),
     (ww, nc, used): (&[f64], usize, usize),
     xis: &[f64],
     coefs: &[C64],
     (out, cap, seg, ro): (&mut [f64], usize, usize, usize),
+    (part, mid): (&mut [f64], usize),
     np: usize,
 ) {
     // Per hit `s` transients (a constant in the common frames' calls) or, when the transient
@@ -392,12 +413,21 @@ fn hit_rows_with(
         let w_blk = &ww[c * nc * 2 * LANES..(c * nc + used) * 2 * LANES];
         let lanes = (np - c * LANES).min(LANES);
         for h in 0..hits {
-            let (re, im) = chunk_row(
-                s_blk,
-                &xis[h * s..(h + 1) * s],
-                w_blk,
-                &coefs[h * nc..h * nc + used],
-            );
+            let xi = &xis[h * s..(h + 1) * s];
+            let coef = &coefs[h * nc..h * nc + used];
+            let (re, im) = if PARTIAL {
+                let (w0, w1) = w_blk.split_at(mid * 2 * LANES);
+                let (c0, c1) = coef.split_at(mid);
+                let (re, im) = complex_terms(real_terms(s_blk, xi), w0, c0);
+                for k in 0..lanes {
+                    let at = (c * LANES + k) * cap + h * seg + ro;
+                    part[at] = re[k];
+                    part[at + 1] = im[k];
+                }
+                complex_terms((re, im), w1, c1)
+            } else {
+                complex_terms(real_terms(s_blk, xi), w_blk, coef)
+            };
             for k in 0..lanes {
                 let at = (c * LANES + k) * cap + h * seg + ro;
                 out[at] = re[k];
@@ -407,15 +437,13 @@ fn hit_rows_with(
     }
 }
 
-/// One chunk of [`hit_rows`] for one hit: the real and imaginary parts of `LANES` parameters'
-/// derivatives.
+/// Real and imaginary parts of `LANES` parameters' derivatives.
+type Lanes = ([f64; LANES], [f64; LANES]);
+
+/// The real transient terms of one chunk of [`hit_rows`] for one hit: the real and imaginary
+/// parts of `LANES` parameters' derivatives.
 #[inline(always)]
-fn chunk_row(
-    s_blk: &[f64],
-    xi: &[f64],
-    w_blk: &[f64],
-    coef: &[C64],
-) -> ([f64; LANES], [f64; LANES]) {
+fn real_terms(s_blk: &[f64], xi: &[f64]) -> Lanes {
     let mut re = [0.0; LANES];
     let mut im = [0.0; LANES];
     let mut terms = s_blk.chunks_exact(2 * LANES).zip(xi);
@@ -434,6 +462,12 @@ fn chunk_row(
             im[k] += wi[k] * x;
         }
     }
+    (re, im)
+}
+
+/// [`real_terms`]' sums with the complex terms `w_blk` (coefficients `coef`) added in order.
+#[inline(always)]
+fn complex_terms((mut re, mut im): Lanes, w_blk: &[f64], coef: &[C64]) -> Lanes {
     for (w, c) in w_blk.chunks_exact(2 * LANES).zip(coef) {
         let (wr, wi) = w.split_at(LANES);
         let (cr, ci) = (c.re, c.im);
@@ -1352,12 +1386,15 @@ pub(crate) fn evaluate(
                     let sw_i = &sw[i * chunks * s * 2 * LANES..(i + 1) * chunks * s * 2 * LANES];
                     let ww_i = &ww[i * chunks * nc * 2 * LANES..(i + 1) * chunks * nc * 2 * LANES];
                     let ro = (bi - b0) * 2 * m + 2 * i;
+                    // Without the weight derivative (`second`): the same sums stopped before
+                    // its terms.
                     hit_rows(
                         (sw_i, s - tc),
                         (ww_i, nc, complex_terms(i)),
                         &xis,
                         coefs,
                         (jblk, cap, seg, ro),
+                        second.then_some((&mut jblk2[..], tc + r)),
                         np,
                     );
                     #[cfg(test)]
@@ -1368,16 +1405,6 @@ pub(crate) fn evaluate(
                             values[npp + p] = jblk[p * cap + slot * seg + ro + 1];
                         }
                         sums.rows.push((slot, row(bi, m, i), values));
-                    }
-                    if second {
-                        hit_rows(
-                            (sw_i, s - tc),
-                            (ww_i, nc, tc + r),
-                            &xis,
-                            coefs,
-                            (jblk2, cap, seg, ro),
-                            np,
-                        );
                     }
                 }
             }

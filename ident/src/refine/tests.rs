@@ -812,6 +812,44 @@ fn kept_per_bin_models_give_the_same_evaluation() {
     }
 }
 
+/// The expected Fisher information from the pass with the weights' derivative (the same
+/// rows' sums stopped before its terms) is bit for bit the matrix of a pass without it, in a
+/// group of many hits (real transient terms) and of one (complex ones), held and band-limited.
+#[test]
+fn expected_fisher_beside_the_exact_jacobian_is_a_pass_without_it() {
+    let ((m, k, r), mut records, noise) = case1_records(31, 4, 512);
+    let (_, short, _) = case1_records(37, 1, 300);
+    records.extend(short);
+    for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
+        let problem = Refiner::default()
+            .intersample(intersample)
+            .problem(&records, DT, 2)
+            .unwrap();
+        let hits: Vec<usize> = problem
+            .spectra
+            .groups
+            .iter()
+            .map(|g| g.hits.len())
+            .collect();
+        assert_eq!(hits, [1, 4]);
+        let (theta, _) = param::project(&problem.params, &m, &k, &r.map(|v| v * 1.3));
+        let both = problem
+            .evaluate(&theta, &noise, Want::JacobianAndFisher, false)
+            .unwrap();
+        let without = Want::Jacobian {
+            weight_derivative: false,
+        };
+        let alone = problem.evaluate(&theta, &noise, without, false).unwrap();
+        assert_eq!(
+            format!("{:?}", both.expected_fisher),
+            format!("{:?}", alone.fisher),
+            "{intersample:?}"
+        );
+        // The two matrices differ (a noisy force): the comparison sees the terms.
+        assert_ne!(both.expected_fisher, both.fisher, "{intersample:?}");
+    }
+}
+
 /// The likelihood's passes run blocks of bins in parallel and add the blocks' sums in block
 /// order: the same numbers, bit for bit, on one thread and on three (several blocks of
 /// [`likelihood::BLOCK_BINS`] bins, noisy force, the per-bin cache on and off).
