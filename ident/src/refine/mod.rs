@@ -888,8 +888,9 @@ impl Refiner {
         };
         // The noise fit uses the unwhitened residuals of a run's last point only: they are kept
         // by a run's tail evaluation before the last noise update, and a run that ends at a
-        // point with the Jacobian is evaluated there once more for them (`with_residuals`).
-        // Unwhitening every point's residuals took 3.3 % of a sweep trial's instructions.
+        // point with the Jacobian is evaluated there once more for them (where the noise is
+        // estimated, below). Unwhitening every point's residuals took 3.3 % of a sweep trial's
+        // instructions.
         let jacobian = Want::Jacobian {
             weight_derivative: true,
         };
