@@ -535,6 +535,8 @@ thread_local! {
     pub(crate) static RECOMPUTED_GROUPS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
     /// Groups whose projections were split on this thread (tests check that they were).
     pub(crate) static SPLIT_GROUPS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+    /// Groups evaluated with a kept per-bin model on this thread (tests check that they were).
+    pub(crate) static REUSED_GROUPS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
 }
 
 /// The constant `$value`; in tests the thread-local `$cell` that stands for it (set by a test
@@ -715,6 +717,10 @@ pub(crate) fn evaluate(
         }
         // Kept models are made by groups that keep everything, as this one then does.
         let given = kept_models.map(|all| &all[gi]).filter(|_| full);
+        #[cfg(test)]
+        if given.is_some() {
+            REUSED_GROUPS.with(|c| c.set(c.get() + 1));
+        }
         let nblocks = nb.div_ceil(BLOCK_BINS);
         // Rows of one block in a column of `X` or a hit's residual.
         let block_rows = 2 * m * BLOCK_BINS;

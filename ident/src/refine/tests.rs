@@ -672,6 +672,26 @@ fn case1_records(seed: u64, hits: usize, len: usize) -> (Matrices, Vec<Record>, 
     ((m, k, r), records, noise)
 }
 
+/// [`case1_records`] with a second group: `hits` records of 512 samples (`seed`) and one of 300
+/// (`seed + 1`).
+fn two_group_records(seed: u64, hits: usize) -> (Matrices, Vec<Record>, Noise) {
+    let (matrices, mut records, noise) = case1_records(seed, hits, 512);
+    records.extend(case1_records(seed + 1, 1, 300).1);
+    (matrices, records, noise)
+}
+
+/// The parameters of paper case 1's mass and stiffness with its damping 1.3 times too large:
+/// a point off the estimate to evaluate the likelihood at.
+fn off_truth(problem: &Problem, (m, k, r): &Matrices) -> DVector<f64> {
+    param::project(&problem.params, m, k, &r.map(|v| v * 1.3)).0
+}
+
+/// A start for a refinement near paper case 1: mass 1 % high, stiffness 1 % low, damping
+/// 1.5 times too large.
+fn near_start((m, k, r): &Matrices) -> SecondOrder {
+    SecondOrder::new(m.map(|v| v * 1.01), k.map(|v| v * 0.99), r.map(|v| v * 1.5))
+}
+
 /// Every number of an evaluation as text: `Debug` prints each in its shortest round-trip
 /// form, so equal text is equal bits.
 fn all_bits(ev: &likelihood::Evaluation) -> String {
@@ -702,8 +722,8 @@ fn on_a_pool_thread<T: Send>(f: impl FnOnce() -> T + Send) -> (T, usize) {
 /// same refinement, bit for bit (held and band-limited, noisy force).
 #[test]
 fn recomputed_bins_give_the_same_refinement() {
-    let ((m, k, r), records, _) = case1_records(7, 2, 512);
-    let initial = SecondOrder::new(m.map(|v| v * 1.01), k.map(|v| v * 0.99), r.map(|v| v * 1.5));
+    let (matrices, records, _) = case1_records(7, 2, 512);
+    let initial = near_start(&matrices);
     for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
         let refiner = Refiner::default().intersample(intersample);
         let run = |limit: usize| {
@@ -739,8 +759,8 @@ fn recomputed_bins_give_the_same_refinement() {
 /// limit, and runs ending at their tails; held and band-limited, noisy force).
 #[test]
 fn residuals_kept_only_where_used_give_the_same_refinement() {
-    let ((m, k, r), records, _) = case1_records(19, 3, 512);
-    let initial = SecondOrder::new(m.map(|v| v * 1.01), k.map(|v| v * 0.99), r.map(|v| v * 1.5));
+    let (matrices, records, _) = case1_records(19, 3, 512);
+    let initial = near_start(&matrices);
     for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
         for iterations in [1, 50] {
             let refiner = Refiner::default()
@@ -779,28 +799,30 @@ fn residuals_kept_only_where_used_give_the_same_refinement() {
 /// keep nothing.
 #[test]
 fn kept_per_bin_models_give_the_same_evaluation() {
-    let ((m, k, r), mut records, noise) = case1_records(23, 3, 512);
-    // A shorter hit: a second group.
-    let (_, short, _) = case1_records(29, 1, 300);
-    records.extend(short);
+    let (matrices, records, noise) = two_group_records(23, 3);
     let other = Noise {
         outputs: vec![0.05, 0.01],
         inputs: vec![0.02],
     };
     for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
         let refiner = Refiner::default().intersample(intersample);
-        let (seen, fresh) = (
-            refiner.problem(&records, DT, 2).unwrap(),
-            refiner.problem(&records, DT, 2).unwrap(),
-        );
+        let seen = refiner.problem(&records, DT, 2).unwrap();
         assert_eq!(seen.spectra.groups.len(), 2);
-        let (theta, _) = param::project(&seen.params, &m, &k, &r.map(|v| v * 1.3));
+        let theta = off_truth(&seen, &matrices);
         seen.evaluate(&theta, &noise, Want::Cost, false).unwrap();
         assert!(seen.memo.lock().unwrap().get(&theta).is_some());
+        let reused = || likelihood::REUSED_GROUPS.with(|c| c.get());
         for want in [Want::Cost, Want::JacobianAndFisher] {
+            let before = reused();
+            let again = seen.evaluate(&theta, &other, want, true).unwrap();
+            // Both groups took the kept model; a new problem has none to take.
+            assert_eq!(reused() - before, 2, "{intersample:?}, {want:?}");
+            let fresh = refiner.problem(&records, DT, 2).unwrap();
+            let first = fresh.evaluate(&theta, &other, want, true).unwrap();
+            assert_eq!(reused() - before, 2, "{intersample:?}, {want:?}");
             assert_eq!(
-                all_bits(&seen.evaluate(&theta, &other, want, true).unwrap()),
-                all_bits(&fresh.evaluate(&theta, &other, want, true).unwrap()),
+                all_bits(&again),
+                all_bits(&first),
                 "{intersample:?}, {want:?}"
             );
         }
@@ -817,9 +839,7 @@ fn kept_per_bin_models_give_the_same_evaluation() {
 /// group of many hits (real transient terms) and of one (complex ones), held and band-limited.
 #[test]
 fn expected_fisher_beside_the_exact_jacobian_is_a_pass_without_it() {
-    let ((m, k, r), mut records, noise) = case1_records(31, 4, 512);
-    let (_, short, _) = case1_records(37, 1, 300);
-    records.extend(short);
+    let (matrices, records, noise) = two_group_records(31, 4);
     for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
         let problem = Refiner::default()
             .intersample(intersample)
@@ -832,7 +852,7 @@ fn expected_fisher_beside_the_exact_jacobian_is_a_pass_without_it() {
             .map(|g| g.hits.len())
             .collect();
         assert_eq!(hits, [1, 4]);
-        let (theta, _) = param::project(&problem.params, &m, &k, &r.map(|v| v * 1.3));
+        let theta = off_truth(&problem, &matrices);
         let both = problem
             .evaluate(&theta, &noise, Want::JacobianAndFisher, false)
             .unwrap();
@@ -855,12 +875,12 @@ fn expected_fisher_beside_the_exact_jacobian_is_a_pass_without_it() {
 /// [`likelihood::BLOCK_BINS`] bins, noisy force, the per-bin cache on and off).
 #[test]
 fn likelihood_is_the_same_for_any_thread_count() {
-    let ((m, k, r), records, noise) = case1_records(11, 3, 1024);
+    let (matrices, records, noise) = case1_records(11, 3, 1024);
     for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
         let refiner = Refiner::default().intersample(intersample);
         let problem = refiner.problem(&records, DT, 2).unwrap();
         assert!(problem.spectra.groups[0].bins.len() > 3 * likelihood::BLOCK_BINS);
-        let (theta, _) = param::project(&problem.params, &m, &k, &r.map(|v| v * 1.3));
+        let theta = off_truth(&problem, &matrices);
         for limit in [usize::MAX, 0] {
             let on = |threads: usize| {
                 let pool = rayon::ThreadPoolBuilder::new()
@@ -888,11 +908,11 @@ fn likelihood_is_the_same_for_any_thread_count() {
 /// on and off).
 #[test]
 fn few_hit_transient_terms_match_the_per_bin_form() {
-    let ((m, k, r), records, noise) = case1_records(13, 3, 512);
+    let (matrices, records, noise) = case1_records(13, 3, 512);
     for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
         let refiner = Refiner::default().intersample(intersample);
         let problem = refiner.problem(&records, DT, 2).unwrap();
-        let (theta, _) = param::project(&problem.params, &m, &k, &r.map(|v| v * 1.3));
+        let theta = off_truth(&problem, &matrices);
         for cache in [usize::MAX, 0] {
             let run = |few: usize| {
                 with_setting(&likelihood::CACHE_LIMIT, cache, || {
@@ -950,11 +970,11 @@ fn few_hit_transient_terms_match_the_per_bin_form() {
 /// noisy force).
 #[test]
 fn split_projection_gives_the_same_numbers() {
-    let ((m, k, r), records, noise) = case1_records(17, 1, 2048);
+    let (matrices, records, noise) = case1_records(17, 1, 2048);
     for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
         let refiner = Refiner::default().intersample(intersample);
         let problem = refiner.problem(&records, DT, 2).unwrap();
-        let (theta, _) = param::project(&problem.params, &m, &k, &r.map(|v| v * 1.3));
+        let theta = off_truth(&problem, &matrices);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(2)
             .build()
