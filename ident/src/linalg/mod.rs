@@ -261,13 +261,9 @@ pub fn spectral_radius(a: &DMatrix<f64>) -> Result<f64, LinalgError> {
     if n == 0 {
         return Ok(0.0);
     }
-    let mut balanced = a.clone();
-    nalgebra::linalg::balancing::balance_parlett_reinsch(&mut balanced);
-    let mut h = if n > 2 {
-        nalgebra::linalg::Hessenberg::new(balanced).unpack_h()
-    } else {
-        balanced
-    };
+    let mut h = a.clone();
+    nalgebra::linalg::balancing::balance_parlett_reinsch(&mut h);
+    reduce_to_hessenberg(h.as_mut_slice(), n);
     let values =
         hessenberg_eigenvalues(&mut h, iteration_budget(n)).ok_or(LinalgError::NoConvergence {
             algorithm: "Hessenberg QR iteration",
@@ -275,6 +271,56 @@ pub fn spectral_radius(a: &DMatrix<f64>) -> Result<f64, LinalgError> {
             cols: n,
         })?;
     Ok(values.iter().map(|l| l.norm()).fold(0.0, f64::max))
+}
+
+/// Reduces the `n x n` column-major matrix `d` to upper Hessenberg form `Q^T A Q` in place
+/// by Householder reflections (entries below the subdiagonal set to zero, `Q` not kept), as
+/// [`nalgebra::linalg::Hessenberg`] does, but on contiguous column slices: each reflection
+/// is applied from the left column by column (a dot product and an update over the
+/// column's rows `k + 1..`) and from the right as `w = A v` (a sum of whole columns) and
+/// a rank-one update of the columns `k + 1..`.
+fn reduce_to_hessenberg(d: &mut [f64], n: usize) {
+    assert_eq!(d.len(), n * n, "reduce_to_hessenberg: matrix must be n x n");
+    let mut v = vec![0.0; n];
+    let mut w = vec![0.0; n];
+    for k in 0..n.saturating_sub(2) {
+        let len = n - k - 1;
+        let x = &mut d[k * n + k + 1..(k + 1) * n];
+        if x[1..].iter().all(|&e| e == 0.0) {
+            // Already zero below the subdiagonal: no reflection.
+            continue;
+        }
+        let alpha = x[0];
+        let norm = dot(x, x).sqrt();
+        let s = if alpha >= 0.0 { -norm } else { norm };
+        let v = &mut v[..len];
+        v.copy_from_slice(x);
+        v[0] = alpha - s;
+        let beta = 2.0 / dot(v, v);
+        x[0] = s;
+        x[1..].fill(0.0);
+        // From the left: rows k + 1.. of columns k + 1...
+        for col in d[(k + 1) * n..].chunks_exact_mut(n) {
+            let col = &mut col[k + 1..];
+            let t = beta * dot(v, col);
+            for (c, &e) in col.iter_mut().zip(v.iter()) {
+                *c -= t * e;
+            }
+        }
+        // From the right: every row of columns k + 1...
+        w.fill(0.0);
+        for (col, &e) in d[(k + 1) * n..].chunks_exact(n).zip(v.iter()) {
+            for (o, &c) in w.iter_mut().zip(col) {
+                *o += c * e;
+            }
+        }
+        for (col, &e) in d[(k + 1) * n..].chunks_exact_mut(n).zip(v.iter()) {
+            let t = beta * e;
+            for (c, &o) in col.iter_mut().zip(&w) {
+                *c -= t * o;
+            }
+        }
+    }
 }
 
 /// Eigenvalues of the upper Hessenberg matrix `h` (overwritten; entries below the
@@ -287,6 +333,9 @@ pub fn spectral_radius(a: &DMatrix<f64>) -> Result<f64, LinalgError> {
 /// a deflation), updating the active block only. `None` after `budget` steps.
 fn hessenberg_eigenvalues(h: &mut DMatrix<f64>, budget: usize) -> Option<Vec<C64>> {
     let n = h.nrows();
+    let d = h.as_mut_slice();
+    // Column-major: entry (i, j) at `i + j n`.
+    let at = |i: usize, j: usize| i + j * n;
     let mut values = vec![C64::new(0.0, 0.0); n];
     // Shifts already subtracted from the diagonal (ad hoc steps).
     let mut shift_sum = 0.0;
@@ -297,17 +346,17 @@ fn hessenberg_eigenvalues(h: &mut DMatrix<f64>, budget: usize) -> Option<Vec<C64
         // Start of the active block: after the last negligible subdiagonal entry.
         let mut lo = hi;
         while lo > 0 {
-            let mut s = h[(lo - 1, lo - 1)].abs() + h[(lo, lo)].abs();
+            let mut s = d[at(lo - 1, lo - 1)].abs() + d[at(lo, lo)].abs();
             if s == 0.0 {
-                s = h.norm();
+                s = d.iter().map(|v| v * v).sum::<f64>().sqrt();
             }
-            if h[(lo, lo - 1)].abs() <= f64::EPSILON * s {
-                h[(lo, lo - 1)] = 0.0;
+            if d[at(lo, lo - 1)].abs() <= f64::EPSILON * s {
+                d[at(lo, lo - 1)] = 0.0;
                 break;
             }
             lo -= 1;
         }
-        let x = h[(hi, hi)];
+        let x = d[at(hi, hi)];
         if lo == hi {
             values[hi] = C64::new(x + shift_sum, 0.0);
             since_deflation = 0;
@@ -317,8 +366,8 @@ fn hessenberg_eigenvalues(h: &mut DMatrix<f64>, budget: usize) -> Option<Vec<C64
             hi -= 1;
             continue;
         }
-        let y = h[(hi - 1, hi - 1)];
-        let w = h[(hi, hi - 1)] * h[(hi - 1, hi)];
+        let y = d[at(hi - 1, hi - 1)];
+        let w = d[at(hi, hi - 1)] * d[at(hi - 1, hi)];
         if lo + 1 == hi {
             // The 2x2 block's eigenvalues: x + p +- sqrt(p^2 + w), p = (y - x) / 2.
             let p = 0.5 * (y - x);
@@ -349,9 +398,9 @@ fn hessenberg_eigenvalues(h: &mut DMatrix<f64>, budget: usize) -> Option<Vec<C64
             // Ad hoc shift (a stalled iteration).
             shift_sum += x;
             for i in lo..=hi {
-                h[(i, i)] -= x;
+                d[at(i, i)] -= x;
             }
-            let s = h[(hi, hi - 1)].abs() + h[(hi - 1, hi - 2)].abs();
+            let s = d[at(hi, hi - 1)].abs() + d[at(hi - 1, hi - 2)].abs();
             x = 0.75 * s;
             y = x;
             w = -0.4375 * s * s;
@@ -362,11 +411,11 @@ fn hessenberg_eigenvalues(h: &mut DMatrix<f64>, budget: usize) -> Option<Vec<C64
         let mut m = hi - 2;
         let (mut p, mut q, mut r);
         loop {
-            let z = h[(m, m)];
+            let z = d[at(m, m)];
             let (rr, ss) = (x - z, y - z);
-            p = (rr * ss - w) / h[(m + 1, m)] + h[(m, m + 1)];
-            q = h[(m + 1, m + 1)] - z - rr - ss;
-            r = h[(m + 2, m + 1)];
+            p = (rr * ss - w) / d[at(m + 1, m)] + d[at(m, m + 1)];
+            q = d[at(m + 1, m + 1)] - z - rr - ss;
+            r = d[at(m + 2, m + 1)];
             let scale = p.abs() + q.abs() + r.abs();
             p /= scale;
             q /= scale;
@@ -374,17 +423,17 @@ fn hessenberg_eigenvalues(h: &mut DMatrix<f64>, budget: usize) -> Option<Vec<C64
             if m == lo {
                 break;
             }
-            let u = h[(m, m - 1)].abs() * (q.abs() + r.abs());
-            let v = p.abs() * (h[(m - 1, m - 1)].abs() + z.abs() + h[(m + 1, m + 1)].abs());
+            let u = d[at(m, m - 1)].abs() * (q.abs() + r.abs());
+            let v = p.abs() * (d[at(m - 1, m - 1)].abs() + z.abs() + d[at(m + 1, m + 1)].abs());
             if u <= f64::EPSILON * v {
                 break;
             }
             m -= 1;
         }
         for i in m + 2..=hi {
-            h[(i, i - 2)] = 0.0;
+            d[at(i, i - 2)] = 0.0;
             if i != m + 2 {
-                h[(i, i - 3)] = 0.0;
+                d[at(i, i - 3)] = 0.0;
             }
         }
         // Chase the bulge down with 3-row reflectors (2-row at the end).
@@ -392,9 +441,9 @@ fn hessenberg_eigenvalues(h: &mut DMatrix<f64>, budget: usize) -> Option<Vec<C64
             let last = k + 1 == hi;
             let mut scale = 1.0;
             if k != m {
-                p = h[(k, k - 1)];
-                q = h[(k + 1, k - 1)];
-                r = if last { 0.0 } else { h[(k + 2, k - 1)] };
+                p = d[at(k, k - 1)];
+                q = d[at(k + 1, k - 1)];
+                r = if last { 0.0 } else { d[at(k + 2, k - 1)] };
                 scale = p.abs() + q.abs() + r.abs();
                 if scale != 0.0 {
                     p /= scale;
@@ -408,31 +457,55 @@ fn hessenberg_eigenvalues(h: &mut DMatrix<f64>, budget: usize) -> Option<Vec<C64
             }
             if k == m {
                 if lo != m {
-                    h[(k, k - 1)] = -h[(k, k - 1)];
+                    d[at(k, k - 1)] = -d[at(k, k - 1)];
                 }
             } else {
-                h[(k, k - 1)] = -s * scale;
+                d[at(k, k - 1)] = -s * scale;
             }
             p += s;
             let (vx, vy, vz) = (p / s, q / s, r / s);
             let (q, r) = (q / p, r / p);
-            for j in k..=hi {
-                let mut t = h[(k, j)] + q * h[(k + 1, j)];
-                if !last {
-                    t += r * h[(k + 2, j)];
-                    h[(k + 2, j)] -= t * vz;
+            // Rows k..k+2 (contiguous in each column) of columns k..=hi, then columns
+            // k..k+2 (each contiguous) of rows lo..=min(k+3, hi): the same operations as
+            // indexing entry by entry, on slices (one bounds check a column).
+            if last {
+                for col in d[at(0, k)..at(0, hi + 1)].chunks_exact_mut(n) {
+                    let [a, b] = &mut col[k..k + 2] else {
+                        unreachable!()
+                    };
+                    let t = *a + q * *b;
+                    *b -= t * vy;
+                    *a -= t * vx;
                 }
-                h[(k + 1, j)] -= t * vy;
-                h[(k, j)] -= t * vx;
-            }
-            for i in lo..=hi.min(k + 3) {
-                let mut t = vx * h[(i, k)] + vy * h[(i, k + 1)];
-                if !last {
-                    t += vz * h[(i, k + 2)];
-                    h[(i, k + 2)] -= t * r;
+                let (left, right) = d[at(0, k)..at(0, k + 2)].split_at_mut(n);
+                for (a, b) in left[lo..=hi].iter_mut().zip(&mut right[lo..=hi]) {
+                    let t = vx * *a + vy * *b;
+                    *b -= t * q;
+                    *a -= t;
                 }
-                h[(i, k + 1)] -= t * q;
-                h[(i, k)] -= t;
+            } else {
+                for col in d[at(0, k)..at(0, hi + 1)].chunks_exact_mut(n) {
+                    let [a, b, c] = &mut col[k..k + 3] else {
+                        unreachable!()
+                    };
+                    let t = *a + q * *b + r * *c;
+                    *c -= t * vz;
+                    *b -= t * vy;
+                    *a -= t * vx;
+                }
+                let rows = lo..=hi.min(k + 3);
+                let (left, rest) = d[at(0, k)..at(0, k + 3)].split_at_mut(n);
+                let (mid, right) = rest.split_at_mut(n);
+                for ((a, b), c) in left[rows.clone()]
+                    .iter_mut()
+                    .zip(&mut mid[rows.clone()])
+                    .zip(&mut right[rows])
+                {
+                    let t = vx * *a + vy * *b + vz * *c;
+                    *c -= t * r;
+                    *b -= t * q;
+                    *a -= t;
+                }
             }
         }
     }
