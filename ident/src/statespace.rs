@@ -112,29 +112,28 @@ impl StateSpace {
         // Column-major: `A` and `B` as columns of `N`, `C` and `D` as columns of `m`.
         let a = self.a.as_slice().as_chunks::<N>().0;
         let b = self.b.as_slice().as_chunks::<N>().0;
-        let (c, d) = (self.c.as_slice(), self.d.as_slice());
+        // The rows of `C` (each output's sum over the state, in column order).
+        let c_rows: Vec<[f64; N]> = (0..m)
+            .map(|i| std::array::from_fn(|j| self.c[(i, j)]))
+            .collect();
+        let d = self.d.as_slice();
         let mut y = DMatrix::zeros(m, n);
         let mut x = [0.0; N];
-        let (mut cx, mut du) = (vec![0.0; m], vec![0.0; m]);
         for (yk, uk) in y
             .as_mut_slice()
             .chunks_exact_mut(m)
             .zip(inputs.as_slice().chunks_exact(r))
         {
-            cx.fill(0.0);
-            for (column, &xj) in c.chunks_exact(m).zip(&x) {
-                for (o, &e) in cx.iter_mut().zip(column) {
-                    *o += e * xj;
+            for (i, (o, c_row)) in yk.iter_mut().zip(&c_rows).enumerate() {
+                let mut cx = 0.0;
+                for (&e, &xj) in c_row.iter().zip(&x) {
+                    cx += e * xj;
                 }
-            }
-            du.fill(0.0);
-            for (column, &ul) in d.chunks_exact(m).zip(uk) {
-                for (o, &e) in du.iter_mut().zip(column) {
-                    *o += e * ul;
+                let mut du = 0.0;
+                for (l, &ul) in uk.iter().enumerate() {
+                    du += d[i + l * m] * ul;
                 }
-            }
-            for ((o, &p), &q) in yk.iter_mut().zip(&cx).zip(&du) {
-                *o = p + q;
+                *o = cx + du;
             }
             let mut next = [0.0; N];
             for (column, &xj) in a.iter().zip(&x) {
