@@ -1146,8 +1146,9 @@ pub(crate) fn evaluate(
                         cache.get(bi, |b| &b.model.qi, n * n),
                     )
                 } else {
-                    // Succeeds: it did for this bin in pass 1.
-                    work.compute(model, bin, noise)?;
+                    // Succeeds: it did for this bin in pass 1. The weights `L` are those
+                    // pass 1 kept (below), not computed again.
+                    work.compute_model(model, bin)?;
                     (&work.res[..], &work.cr[..], &work.rb[..], &work.qi[..])
                 };
                 let g = cache.get(bi, |b| &b.model.g, m * r);
