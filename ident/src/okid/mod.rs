@@ -631,8 +631,22 @@ pub fn system_markov(
     (lead_markov, markov)
 }
 
-/// `acc += b g` for `b` m x m and `g`, `acc` m x cols (column-major slices).
+/// `acc += b g` for `b` m x m and `g`, `acc` m x cols (column-major slices). Two to four
+/// outputs (the common frames) take constant sizes, so that the loops unroll: the same
+/// operations in the same order.
 fn mul_add(acc: &mut [f64], b: &[f64], g: &[f64], m: usize, cols: usize) {
+    match m {
+        2 => mul_add_sizes(acc, b, g, 2, cols),
+        3 => mul_add_sizes(acc, b, g, 3, cols),
+        4 => mul_add_sizes(acc, b, g, 4, cols),
+        _ => mul_add_sizes(acc, b, g, m, cols),
+    }
+}
+
+/// [`mul_add`] itself, inlined into each of its calls so that a constant `m` unrolls it.
+#[inline(always)]
+fn mul_add_sizes(acc: &mut [f64], b: &[f64], g: &[f64], m: usize, cols: usize) {
+    let (b, g, acc) = (&b[..m * m], &g[..m * cols], &mut acc[..m * cols]);
     for c in 0..cols {
         for o in 0..m {
             let mut sum = 0.0;
