@@ -109,7 +109,7 @@ impl StateSpace {
     fn simulate_order<const N: usize>(&self, inputs: &DMatrix<f64>) -> DMatrix<f64> {
         let (n, m, r) = (inputs.ncols(), self.outputs(), self.inputs());
         debug_assert!(self.order() == N && m > 0 && r > 0);
-        // Column-major: `A` and `B` as columns of `N`, `C` and `D` as columns of `m`.
+        // Column-major: `A` and `B` as columns of `N`, `D` as columns of `m`.
         let a = self.a.as_slice().as_chunks::<N>().0;
         let b = self.b.as_slice().as_chunks::<N>().0;
         // The rows of `C` (each output's sum over the state, in column order).
