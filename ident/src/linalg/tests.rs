@@ -201,7 +201,8 @@ fn spectral_radius_agrees_with_the_schur_eigenvalues() {
             // Two backward-stable eigenvalue computations of the same balanced matrix
             // (nalgebra's Hessenberg reduction and Schur form against this module's):
             // they differ by round-off times the eigenvalue's condition (measured at most
-            // 2e-15 relative for these sizes).
+            // 3.4e-14 relative for these sizes, at n = 60; 2e-15 when both reductions were
+            // nalgebra's).
             assert!(
                 (got - want).abs() <= 1e-12 * want,
                 "n = {n}: {got} against {want}"
@@ -256,7 +257,7 @@ fn hessenberg_reduction_matches_nalgebra_up_to_signs() {
         }
         // Two backward-stable reductions: entries agree to round-off of the matrix norm
         // (a few hundred eps for n = 60: each entry is the sum of about n^2 rounded
-        // products; measured below 1e-14 relative to the norm).
+        // products; measured at most 7.3e-15 relative to the norm, at n = 60).
         let scale = a.norm();
         for j in 0..n {
             for i in 0..n.min(j + 2) {

@@ -67,7 +67,7 @@ fn recursion_reproduces_markov_parameters_including_the_bd_term() {
 
 fn recursion_case(rng: &mut ChaCha8Rng, n: usize, m: usize, r: usize, radius: f64) {
     let sys = random_stable_system(rng, n, m, r, radius);
-    // A small random gain keeps A + G C stable; p = 120 makes its tail negligible.
+    // A small random gain keeps A + G C stable; p = 160 makes its tail negligible.
     let mut g = DMatrix::from_fn(n, m, |_, _| 0.05 * normal(rng));
     let mut abar = &sys.a + &g * &sys.c;
     while linalg::spectral_radius(&abar).unwrap() > 0.8 {
