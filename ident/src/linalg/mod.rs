@@ -273,6 +273,17 @@ pub fn spectral_radius(a: &DMatrix<f64>) -> Result<f64, LinalgError> {
     Ok(values.iter().map(|l| l.norm()).fold(0.0, f64::max))
 }
 
+/// `col -= beta (v . col) v`: the Householder reflection `I - beta v v^T` applied to a
+/// column (`v` and `col` of one length), as every reduction and product of this module
+/// applies it.
+#[inline]
+fn reflect(v: &[f64], beta: f64, col: &mut [f64]) {
+    let w = beta * dot(v, col);
+    for (c, x) in col.iter_mut().zip(v) {
+        *c -= w * x;
+    }
+}
+
 /// Reduces the `n x n` column-major matrix `d` to upper Hessenberg form `Q^T A Q` in place
 /// by Householder reflections (entries below the subdiagonal set to zero, `Q` not kept), as
 /// [`nalgebra::linalg::Hessenberg`] does, but on contiguous column slices: each reflection
@@ -301,11 +312,7 @@ fn reduce_to_hessenberg(d: &mut [f64], n: usize) {
         x[1..].fill(0.0);
         // From the left: rows k + 1.. of columns k + 1...
         for col in d[(k + 1) * n..].chunks_exact_mut(n) {
-            let col = &mut col[k + 1..];
-            let t = beta * dot(v, col);
-            for (c, &e) in col.iter_mut().zip(v.iter()) {
-                *c -= t * e;
-            }
+            reflect(v, beta, &mut col[k + 1..]);
         }
         // From the right: every row of columns k + 1...
         w.fill(0.0);
@@ -348,7 +355,7 @@ fn hessenberg_eigenvalues(h: &mut DMatrix<f64>, budget: usize) -> Option<Vec<C64
         while lo > 0 {
             let mut s = d[at(lo - 1, lo - 1)].abs() + d[at(lo, lo)].abs();
             if s == 0.0 {
-                s = d.iter().map(|v| v * v).sum::<f64>().sqrt();
+                s = dot(d, d).sqrt();
             }
             if d[at(lo, lo - 1)].abs() <= f64::EPSILON * s {
                 d[at(lo, lo - 1)] = 0.0;
@@ -610,11 +617,7 @@ pub fn thin_qr(m: &DMatrix<f64>) -> (DMatrix<f64>, DMatrix<f64>) {
         }
         let v = &vs[k * rows + k..(k + 1) * rows];
         for j in k..cols {
-            let col = &mut qd[j * rows + k..(j + 1) * rows];
-            let w = beta * dot(v, col);
-            for (c, x) in col.iter_mut().zip(v) {
-                *c -= w * x;
-            }
+            reflect(v, beta, &mut qd[j * rows + k..(j + 1) * rows]);
         }
     }
     (q, r)
@@ -676,11 +679,7 @@ impl Householder {
             let beta = 2.0 / dot(v, v);
             betas[k] = beta;
             for j in k + 1..cols {
-                let col = &mut tail[(j - k - 1) * rows + k..(j - k) * rows];
-                let w = beta * dot(v, col);
-                for (c, x) in col.iter_mut().zip(v.iter()) {
-                    *c -= w * x;
-                }
+                reflect(v, beta, &mut tail[(j - k - 1) * rows + k..(j - k) * rows]);
             }
         }
         betas.truncate(steps);
@@ -719,11 +718,7 @@ impl Householder {
             }
             let v = &vs[c * rows + c..(c + 1) * rows];
             for j in 0..k {
-                let col = &mut od[j * rows + c..(j + 1) * rows];
-                let w = beta * dot(v, col);
-                for (o, x) in col.iter_mut().zip(v) {
-                    *o -= w * x;
-                }
+                reflect(v, beta, &mut od[j * rows + c..(j + 1) * rows]);
             }
         }
         out
