@@ -59,13 +59,12 @@
 //! match the records, a wrong collocated pair, calibration errors).
 
 use crate::campaign::Campaign;
-use crate::era::ModelOrder;
-use crate::okid::ObserverOrder;
-use crate::pipeline::{Error, Identification, Identifier};
+use crate::pipeline::{Error, Identification, Identifier, Prepared, PreparedRecords};
 use crate::record::Record;
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::ops::Range;
 
 /// Fewest hits for an uncertainty estimate.
@@ -212,6 +211,43 @@ pub fn jackknife_in_groups(
     joint: &Identification,
     max_groups: usize,
 ) -> Result<Jackknife, UncertaintyError> {
+    grouped(identifier, campaign, joint, max_groups, None)
+}
+
+/// [`jackknife`] of the records `prepared` (those of `campaign`, in its order) with the
+/// identifier that prepared them: the resamples' moments are those already accumulated
+/// when the fixed observer order allows (at rest always: every sample from the leads on
+/// forms an equation whatever the order, so the normal equations at a lower order are a
+/// corner of those at the largest), so that the records are not read again. The same
+/// result as [`jackknife`]: bit for bit when `joint` has the largest observer order
+/// allowed, and within the round-off of the correlations' FFT (whose length follows the
+/// order) below it. Panics if `prepared` holds other records than `campaign`.
+pub fn jackknife_prepared(
+    prepared: &PreparedRecords,
+    campaign: &Campaign,
+    joint: &Identification,
+) -> Result<Jackknife, UncertaintyError> {
+    assert!(
+        std::ptr::eq(prepared.records(), campaign.records.as_slice())
+            && prepared.dt_s() == campaign.dt_s,
+        "jackknife_prepared: the records prepared are not the campaign's"
+    );
+    grouped(
+        &prepared.identifier,
+        campaign,
+        joint,
+        MAX_GROUPS,
+        Some(&prepared.prepared),
+    )
+}
+
+fn grouped(
+    identifier: &Identifier,
+    campaign: &Campaign,
+    joint: &Identification,
+    max_groups: usize,
+    shared: Option<&Prepared>,
+) -> Result<Jackknife, UncertaintyError> {
     assert!(
         max_groups >= MIN_HITS,
         "jackknife: at least {MIN_HITS} groups, asked for {max_groups}"
@@ -221,7 +257,7 @@ pub fn jackknife_in_groups(
         return Err(UncertaintyError::TooFewHits { hits: n });
     }
     let groups = hit_groups(n, max_groups);
-    let results = leave_groups_out(identifier, campaign, Some(joint), &groups);
+    let results = leave_groups_out(identifier, campaign, Some(joint), &groups, shared);
     jackknife_from(campaign, joint, &groups, results)
 }
 
@@ -241,27 +277,29 @@ pub fn leave_one_out(
     joint: Option<&Identification>,
 ) -> Vec<Result<Identification, Error>> {
     let n = campaign.records.len();
-    leave_groups_out(identifier, campaign, joint, &hit_groups(n, n))
+    leave_groups_out(identifier, campaign, joint, &hit_groups(n, n), None)
 }
 
 /// The identifications of a campaign without each of `groups` (non-empty ranges of
-/// records), as [`leave_one_out`] does for single records.
+/// records), as [`leave_one_out`] does for single records, from the moments `shared` of
+/// its records when given and usable at the resamples' orders.
 fn leave_groups_out(
     identifier: &Identifier,
     campaign: &Campaign,
     joint: Option<&Identification>,
     groups: &[Range<usize>],
+    shared: Option<&Prepared>,
 ) -> Vec<Result<Identification, Error>> {
     let (records, dt_s) = (&campaign.records, campaign.dt_s);
-    let mut id = identifier.clone();
-    if let Some(joint) = joint {
-        id = id.order(ModelOrder::Fixed(joint.model_order));
-        if let Some(p) = joint.observer.map(|o| o.order) {
-            id = id.observer_order(ObserverOrder::Fixed(p));
-        }
-    }
+    let id = match joint {
+        Some(joint) => identifier.at_orders_of(joint),
+        None => identifier.clone(),
+    };
     let prepared = id.check().and_then(|valid| {
-        let prepared = valid.prepare(records, dt_s)?;
+        let prepared = match shared.filter(|s| valid.fits_from(s)) {
+            Some(s) => Cow::Borrowed(s),
+            None => Cow::Owned(valid.prepare(records, dt_s)?),
+        };
         Ok((valid, prepared))
     });
     match &prepared {

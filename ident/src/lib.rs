@@ -95,15 +95,16 @@ pub use campaign::Campaign;
 pub use era::{Correlation, Era, EraError, EraParams, ModelOrder};
 pub use frf::{Frf, FrfError, FrfQuantity};
 pub use jackknife::{
-    Jackknife, UncertaintyError, hit_groups, jackknife, jackknife_in_groups, leave_one_out,
+    Jackknife, UncertaintyError, hit_groups, jackknife, jackknife_in_groups, jackknife_prepared,
+    leave_one_out,
 };
 pub use mkr::{CollocatedPair, Mkr, MkrError, MkrParams, PolarityPolicy};
 pub use modal::{Indicators, Intersample, ModalModel, ModalParams, Mode, StructuralRule};
 pub use okid::{InitialState, ObserverOrder, Okid, OkidError, OkidParams};
 
 pub use pipeline::{
-    Error, Identification, Identifier, MAX_MODE_SUBSETS, ModeSelection, SelectionRule,
-    ValidIdentifier, Warning, shear_frame_defect,
+    Error, Identification, Identifier, MAX_MODE_SUBSETS, ModeSelection, PreparedRecords,
+    SelectionRule, ValidIdentifier, Warning, shear_frame_defect,
 };
 pub use rayleigh::{Rayleigh, RayleighError};
 pub use record::{Channel, DataError, Record};

@@ -454,16 +454,28 @@ pub fn analyze_located(
     let locate: &dyn Locate = &mapped;
     let campaign: &Campaign = &work;
     let id = &identifier;
-    let mut c = campaign.subset(&keep);
-    check_orders(&c, id)?;
-    let mut result = match id.identify(&c.records, c.dt_s) {
+    // The kept hits' records are validated and their OKID moments accumulated once, for
+    // the joint identification, the consistency check's core and the jackknife's
+    // resamples. When the joint identification fails and a hit is dropped, the other
+    // hits form `replaced` and are identified from scratch.
+    let joint_campaign = campaign.subset(&keep);
+    check_orders(&joint_campaign, id)?;
+    let prepared = id
+        .prepare(&joint_campaign.records, joint_campaign.dt_s)
+        .ok();
+    let joint = match &prepared {
+        Some(p) => p.identify(),
+        None => id.identify(&joint_campaign.records, joint_campaign.dt_s),
+    };
+    let mut replaced: Option<Campaign> = None;
+    let mut result = match joint {
         Ok(r) => r,
         Err(e) => {
             // A hit that breaks the joint identification on its own is
             // inconsistent with the others: find it, or refuse naming none.
             let Some((bad, r)) = without_breaking_hit(campaign, &keep, id, &settings.consistency)
             else {
-                return Err(identification_error(e, &c, id));
+                return Err(identification_error(e, &joint_campaign, id));
             };
             let flag = ConsistencyFlag {
                 record: bad,
@@ -472,7 +484,7 @@ pub fn analyze_located(
                 kind: Inconsistency::BreaksIdentification,
                 message: format!(
                     "the joint identification fails with this hit ({}) and succeeds without it",
-                    identification_error(e, &c, id)
+                    identification_error(e, &joint_campaign, id)
                 ),
             };
             if settings.screening == Screening::Strict {
@@ -485,10 +497,12 @@ pub fn analyze_located(
             consistency.flags.push(flag);
             consistency.flags.sort_by_key(|f| f.record);
             keep.retain(|&i| i != bad);
-            c = campaign.subset(&keep);
+            replaced = Some(campaign.subset(&keep));
             r
         }
     };
+    // The moments prepared are those of the campaign identified.
+    let prepared = prepared.filter(|_| replaced.is_none());
     // Every kept hit against the model of the hits that agree best with the
     // joint model (the better half): a hit whose outputs do not follow it
     // is dropped (if such hits are a minority) and the rest identified
@@ -497,17 +511,27 @@ pub fn analyze_located(
     // The error bars of the joint result are computed alongside (both use
     // every thread): they are kept unless hits are dropped here, which is
     // rare, and then computed again for the hits kept.
-    let jackknife_of = |c: &Campaign, result: &Identification| {
-        settings
-            .uncertainty
-            .then(|| ident::jackknife(id, c, result).map_err(|e| e.to_string()))
-    };
+    let jackknife_of =
+        |c: &Campaign, result: &Identification, prepared: Option<&ident::PreparedRecords>| {
+            settings.uncertainty.then(|| {
+                match prepared {
+                    Some(p) => ident::jackknife_prepared(p, c, result),
+                    None => ident::jackknife(id, c, result),
+                }
+                .map_err(|e| e.to_string())
+            })
+        };
     let mut residual_notes = Vec::new();
     let mut error_bars = None;
+    let c = replaced.as_ref().unwrap_or(&joint_campaign);
     if keep.len() >= settings.consistency.min_hits {
+        let core = CoreIdentifier {
+            identifier: id,
+            prepared: prepared.as_ref(),
+        };
         let (flags, bars) = rayon::join(
-            || residual_flags(&c, &keep, &result, id, locate, &settings.consistency),
-            || jackknife_of(&c, &result),
+            || residual_flags(c, &keep, &result, &core, locate, &settings.consistency),
+            || jackknife_of(c, &result, prepared.as_ref()),
         );
         error_bars = Some(bars);
         let odd: Vec<usize> = {
@@ -527,10 +551,11 @@ pub fn analyze_located(
                 keep.retain(|i| !odd.contains(i));
                 consistency.flags.extend(flags);
                 consistency.flags.sort_by_key(|f| f.record);
-                c = campaign.subset(&keep);
+                let kept = campaign.subset(&keep);
                 result = id
-                    .identify(&c.records, c.dt_s)
-                    .map_err(|e| identification_error(e, &c, id))?;
+                    .identify(&kept.records, kept.dt_s)
+                    .map_err(|e| identification_error(e, &kept, id))?;
+                replaced = Some(kept);
                 error_bars = None;
             } else {
                 residual_notes.push(format!(
@@ -544,11 +569,13 @@ pub fn analyze_located(
     }
     consistency.notes.extend(residual_notes);
     let dropped: Vec<usize> = (0..campaign.len()).filter(|i| !keep.contains(i)).collect();
+    let prepared = prepared.filter(|_| replaced.is_none());
+    let c = replaced.as_ref().unwrap_or(&joint_campaign);
     if settings.screening == Screening::Strict {
-        check_modes_against_outputs(&result, &c)?;
+        check_modes_against_outputs(&result, c)?;
     }
     let (uncertainty, uncertainty_skipped) =
-        match error_bars.unwrap_or_else(|| jackknife_of(&c, &result)) {
+        match error_bars.unwrap_or_else(|| jackknife_of(c, &result, prepared.as_ref())) {
             Some(Ok(u)) => (Some(u), None),
             Some(Err(e)) => (None, Some(e)),
             None => (None, Some("--no-uncertainty".to_string())),
@@ -613,7 +640,7 @@ pub fn analyze_located(
             .warnings
             .iter()
             .filter(|w| !matches!(w, ident::Warning::ExtraStructuralModes { .. }))
-            .map(|w| ident_warning(w, &c)),
+            .map(|w| ident_warning(w, c)),
     );
     let outside = result.out_of_model_modes();
     if !outside.is_empty() {
@@ -652,6 +679,8 @@ pub fn analyze_located(
     {
         warnings.push(format!("no error bars: {reason}"));
     }
+    drop(prepared);
+    let c = replaced.unwrap_or(joint_campaign);
     let refinement = match settings.refine {
         Some(p) => Some(refine(p, &c, &result, id)?),
         None => None,
@@ -743,8 +772,9 @@ struct Misfit {
 }
 
 /// The misfit of every output (inner) of every hit of `c` (outer) to
-/// `model`.
-fn misfits(c: &Campaign, model: &Identification) -> Vec<Vec<Misfit>> {
+/// `model`; without `glitches`, only the shares and gains (the glitch
+/// fields zero: their medians are most of the cost).
+fn misfits(c: &Campaign, model: &Identification, glitches: bool) -> Vec<Vec<Misfit>> {
     let median = records::consistency::median;
     let sign = if model.polarity_flipped { -1.0 } else { 1.0 };
     // Hits in parallel, each its own numbers.
@@ -767,6 +797,14 @@ fn misfits(c: &Campaign, model: &Identification) -> Vec<Vec<Misfit>> {
                     } else {
                         (f64::INFINITY, 0.0)
                     };
+                    if !glitches {
+                        return Misfit {
+                            share,
+                            gain,
+                            glitch: (0, 0.0),
+                            glitch_of_peak: 0.0,
+                        };
+                    }
                     let mid = median(&residual);
                     let dev: Vec<f64> = residual.iter().map(|v| (v - mid).abs()).collect();
                     let scale = 1.4826 * median(&dev);
@@ -791,6 +829,28 @@ fn misfits(c: &Campaign, model: &Identification) -> Vec<Vec<Misfit>> {
         .collect()
 }
 
+/// How the core of a campaign is identified: on its own (its own model and
+/// observer orders: at the joint's, which a bad hit can inflate, the core's
+/// model follows that hit too), from the moments of the campaign's records
+/// when they are `prepared`.
+struct CoreIdentifier<'a, 'r> {
+    identifier: &'a Identifier,
+    prepared: Option<&'a ident::PreparedRecords<'r>>,
+}
+
+impl CoreIdentifier<'_, '_> {
+    /// The hits `core` (increasing indices) of `c` identified on their own.
+    fn identify(&self, c: &Campaign, core: &[usize]) -> Result<Identification, ident::Error> {
+        match self.prepared {
+            Some(p) => p.identify_subset(core),
+            None => {
+                let sub = c.subset(core);
+                self.identifier.identify(&sub.records, sub.dt_s)
+            }
+        }
+    }
+}
+
 /// Every hit of `c` (hit `i` of `c` is record `index[i]` of the campaign
 /// given) against the model of its core: the better half of the hits by
 /// their residual against the joint model `joint`, identified again on
@@ -806,23 +866,23 @@ fn residual_flags(
     c: &Campaign,
     index: &[usize],
     joint: &Identification,
-    id: &Identifier,
+    core_identifier: &CoreIdentifier,
     locate: &dyn Locate,
     settings: &ConsistencySettings,
 ) -> Vec<ConsistencyFlag> {
     let m = c.outputs.len();
     let n = c.len();
-    let against_joint = misfits(c, joint);
+    // The joint model's shares order the hits; its glitches are not judged.
+    let against_joint = misfits(c, joint, false);
     let worst = |s: &Vec<Misfit>| s.iter().map(|v| v.share).fold(0.0, f64::max);
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&a, &b| worst(&against_joint[a]).total_cmp(&worst(&against_joint[b])));
     let mut core: Vec<usize> = order[..n.div_ceil(2).max(2)].to_vec();
     core.sort_unstable();
-    let core_campaign = c.subset(&core);
-    let core_model = id.identify(&core_campaign.records, core_campaign.dt_s);
+    let core_model = core_identifier.identify(c, &core);
     // Glitches are judged against the core model only.
     let (shares, glitch_check) = match &core_model {
-        Ok(model) => (misfits(c, model), true),
+        Ok(model) => (misfits(c, model, true), true),
         Err(_) => (against_joint, false),
     };
     let median = records::consistency::median;

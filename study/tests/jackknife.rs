@@ -233,3 +233,89 @@ fn too_few_hits_give_no_uncertainty() {
         UncertaintyError::TooFewHits { hits: 2 }
     );
 }
+
+#[test]
+fn prepared_records_give_the_same_identification_and_jackknife() {
+    let s = case1();
+    let sim = s.scenario.simulator(s.model.clone()).unwrap();
+    let c = sim.simulate(3);
+    let camp = c.to_ident();
+    let id = Identifier::default();
+    let joint = id.identify(&camp.records, c.dt_s).unwrap();
+    let prepared = id.prepare(&camp.records, c.dt_s).unwrap();
+    // The same moments summed in the same order: bit for bit.
+    assert_eq!(prepared.identify().unwrap(), joint);
+    // At the largest observer order (20, the automatic choice on these records) the
+    // resamples' moments are the same: bit for bit too.
+    assert_eq!(joint.observer.unwrap().order, 20);
+    assert_eq!(
+        ident::jackknife_prepared(&prepared, &camp, &joint).unwrap(),
+        jackknife(&id, &camp, &joint).unwrap()
+    );
+    // A subset (a campaign's core) against the same records identified from scratch: the
+    // same moments summed in the same order, the same orders chosen: bit for bit.
+    let keep = [0, 2, 3, 7, 9];
+    let sub = camp.subset(&keep);
+    assert_eq!(
+        prepared.identify_subset(&keep).unwrap(),
+        id.identify(&sub.records, sub.dt_s).unwrap()
+    );
+}
+
+#[test]
+fn prepared_jackknife_below_the_largest_observer_order_agrees_with_the_fresh_one() {
+    let s = case1();
+    let sim = s.scenario.simulator(s.model.clone()).unwrap();
+    let c = sim.simulate(5);
+    let camp = c.to_ident();
+    let id = Identifier::default().observer_order(ident::ObserverOrder::Auto { max: 32 });
+    let joint = id.identify(&camp.records, c.dt_s).unwrap();
+    let p = joint.observer.unwrap().order;
+    let prepared = id.prepare(&camp.records, c.dt_s).unwrap();
+    let shared = ident::jackknife_prepared(&prepared, &camp, &joint).unwrap();
+    let fresh = jackknife(&id, &camp, &joint).unwrap();
+    let worst = |get: &dyn Fn(&Jackknife) -> &Vec<Vec<f64>>| {
+        let (a, b) = (get(&shared), get(&fresh));
+        a.iter()
+            .flatten()
+            .zip(b.iter().flatten())
+            .map(|(x, y)| (x / y - 1.0).abs())
+            .fold(0.0, f64::max)
+    };
+    let (dm, dk) = (worst(&|u| &u.mass.std), worst(&|u| &u.stiffness.std));
+    eprintln!("observer order {p} of 32: standard errors of M {dm:.1e}, K {dk:.1e} apart");
+    assert!(p < 32, "the test needs an order below the largest");
+    // At rest the resamples' normal equations are the corner of the largest order's: only
+    // the correlations' FFT length (which follows the order) can move them, by round-off
+    // (measured: no difference at all, both orders fall in the same FFT length). 1e-8 of a
+    // standard error is round-off amplified by the identification (conditioning ~1e3-1e4).
+    assert!(dm < 1e-8 && dk < 1e-8, "M {dm:e}, K {dk:e}");
+}
+
+#[test]
+fn prepared_jackknife_with_an_unknown_initial_state_prepares_its_own_order() {
+    let s = case1();
+    let sim = s.scenario.simulator(s.model.clone()).unwrap();
+    let c = sim.simulate(5);
+    let camp = c.to_ident();
+    let id = Identifier::default()
+        .initial_state(ident::InitialState::Unknown)
+        .observer_order(ident::ObserverOrder::Auto { max: 32 });
+    let joint = id.identify(&camp.records, c.dt_s).unwrap();
+    let p = joint.observer.unwrap().order;
+    // The equations skipped at the start follow the order: the moments of the largest
+    // order do not serve the resamples, which accumulate their own, as the jackknife does.
+    assert!(p < 32, "the test needs an order below the largest, got {p}");
+    let prepared = id.prepare(&camp.records, c.dt_s).unwrap();
+    assert_eq!(prepared.identify().unwrap(), joint);
+    assert_eq!(
+        ident::jackknife_prepared(&prepared, &camp, &joint).unwrap(),
+        jackknife(&id, &camp, &joint).unwrap()
+    );
+    let keep = [1, 4, 5, 8];
+    let sub = camp.subset(&keep);
+    assert_eq!(
+        prepared.identify_subset(&keep).unwrap(),
+        id.identify(&sub.records, sub.dt_s).unwrap()
+    );
+}

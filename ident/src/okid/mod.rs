@@ -250,6 +250,13 @@ impl OkidParams {
         }
     }
 
+    /// Whether moments accumulated for `lay` serve these parameters: the same leads and
+    /// skipped equations, and at least the largest order (with the same equations, the
+    /// Gram matrix at a lower order is a corner of that at a higher one).
+    pub(crate) fn fits_layout(&self, lay: &Layout) -> bool {
+        lay.q == self.leads && lay.p >= self.max_order() && lay.skip == self.skipped_equations()
+    }
+
     /// Every record must be long enough for the largest order and the leads.
     pub(crate) fn check_lengths(&self, records: &[&Record]) -> Result<(), OkidError> {
         let required = self.max_order() + self.leads + 1 + self.skipped_equations();
@@ -284,9 +291,7 @@ impl OkidParams {
         self.check()?;
         let lay = moments.layout;
         assert!(
-            lay.q == self.leads
-                && lay.p >= self.max_order()
-                && lay.skip == self.skipped_equations(),
+            self.fits_layout(&lay),
             "OKID moments built for another layout"
         );
         let layout = Layout {

@@ -368,6 +368,35 @@ impl Identifier {
         self.check()?.identify(records, dt_s)
     }
 
+    /// Validates `records` (sampled every `dt_s` seconds) once and accumulates their OKID
+    /// moments, record by record: the joint identification and those of subsets
+    /// ([`PreparedRecords::identify_subset`], the jackknife's resamples:
+    /// [`crate::jackknife::jackknife_prepared`]) then share that work. Fails where [`Identifier::identify`] fails on the records' data
+    /// or lengths (the error may be another of its errors).
+    pub fn prepare<'a>(
+        &self,
+        records: &'a [Record],
+        dt_s: f64,
+    ) -> Result<PreparedRecords<'a>, Error> {
+        let valid = self.check()?;
+        let prepared = crate::parallel::on_pool(|| valid.prepare(records, dt_s))?;
+        Ok(PreparedRecords {
+            identifier: self.clone(),
+            valid,
+            prepared,
+        })
+    }
+
+    /// This identifier with the model order and observer order of `joint` fixed (as the
+    /// jackknife's resamples use them).
+    pub(crate) fn at_orders_of(&self, joint: &Identification) -> Identifier {
+        let mut id = self.clone().order(ModelOrder::Fixed(joint.model_order));
+        if let Some(p) = joint.observer.map(|o| o.order) {
+            id = id.observer_order(ObserverOrder::Fixed(p));
+        }
+        id
+    }
+
     /// Skips OKID and ERA: modal parameters, MKR and Rayleigh damping of a given discrete
     /// realization. Panics if the matrix shapes are inconsistent.
     pub fn from_realization(
@@ -555,11 +584,13 @@ impl ValidIdentifier {
         } else {
             Vec::new()
         };
-        self.decompose_with(&refs, &peaks, shape, dt_s, None)
+        self.decompose_with(&refs, &peaks, shape, dt_s, None, false)
     }
 
     /// [`ValidIdentifier::decompose`] of validated records with their input peaks (empty
-    /// without leads) and, if already accumulated, their OKID moments.
+    /// without leads) and, if already accumulated, their OKID moments. A `subset` (the
+    /// jackknife's resamples, a campaign's core) at a fixed model order is realized to that
+    /// order only.
     fn decompose_with(
         &self,
         records: &[&Record],
@@ -567,6 +598,7 @@ impl ValidIdentifier {
         shape: record::RecordShape,
         dt_s: f64,
         moments: Option<&Moments>,
+        subset: bool,
     ) -> Result<Decomposed, Error> {
         let (m, r) = (shape.outputs, shape.inputs);
         self.check_dofs(m)?;
@@ -618,10 +650,10 @@ impl ValidIdentifier {
             block_cols: Some(hankel.block_cols),
             ..era_base
         };
-        // Resamples (moments given) at a fixed order realize that order only: the
-        // factored matrix's singular vectors beyond it are not needed.
-        let dec = match (moments, era_params.order) {
-            (Some(_), ModelOrder::Fixed(n)) => era_params.decompose_observer_to_order(
+        // Subsets at a fixed order realize that order only: the factored matrix's
+        // singular vectors beyond it are not needed.
+        let dec = match (subset, era_params.order) {
+            (true, ModelOrder::Fixed(n)) => era_params.decompose_observer_to_order(
                 &okid.markov,
                 dt_s,
                 n,
@@ -663,10 +695,44 @@ impl ValidIdentifier {
         Ok(Prepared {
             records,
             dt_s,
+            shape,
             per_record,
             total,
             peaks,
         })
+    }
+
+    /// Whether this identifier can fit from the moments of `prepared` (accumulated by an
+    /// identifier with the same leads and initial state and at least this observer order;
+    /// with an unknown initial state the equations skipped follow the order, so only the
+    /// same order serves).
+    pub(crate) fn fits_from(&self, prepared: &Prepared) -> bool {
+        self.okid.fits_layout(&prepared.total.layout)
+    }
+
+    /// Runs the whole chain on all the prepared records: the same as
+    /// [`ValidIdentifier::identify`] of them, bit for bit (the same moments summed in the
+    /// same order).
+    pub(crate) fn identify_prepared(&self, prepared: &Prepared) -> Result<Identification, Error> {
+        assert!(
+            self.fits_from(prepared),
+            "moments prepared for another layout"
+        );
+        let refs: Vec<&Record> = prepared.records.iter().collect();
+        let peaks: &[usize] = if self.okid.leads > 0 {
+            &prepared.peaks
+        } else {
+            &[]
+        };
+        let decomposed = self.decompose_with(
+            &refs,
+            peaks,
+            prepared.shape,
+            prepared.dt_s,
+            Some(&prepared.total),
+            false,
+        )?;
+        self.identify_decomposed(decomposed)
     }
 
     /// Runs the whole chain on the prepared records without the records `left_out` (a
@@ -684,6 +750,53 @@ impl ValidIdentifier {
         let keep: Vec<usize> = (0..prepared.records.len())
             .filter(|k| !left_out.contains(k))
             .collect();
+        // One record: its moments are subtracted as they are (the delete-one jackknife's
+        // results do not depend on how groups are summed); several: their sum.
+        let moments = if left_out.len() == 1 {
+            prepared.total.without(&prepared.per_record[left_out.start])
+        } else {
+            let mut group = prepared.per_record[left_out.start].clone();
+            for mom in &prepared.per_record[left_out.start + 1..left_out.end] {
+                group.add(mom);
+            }
+            prepared.total.without(&group)
+        };
+        self.identify_subset_with(prepared, &keep, &moments)
+    }
+
+    /// Runs the whole chain on the prepared records `keep` (increasing indices, at least
+    /// one), their moments summed in order: the same as [`ValidIdentifier::identify`] of
+    /// those records bit for bit, but for the realization to a fixed model order only.
+    pub(crate) fn identify_kept(
+        &self,
+        prepared: &Prepared,
+        keep: &[usize],
+    ) -> Result<Identification, Error> {
+        assert!(
+            !keep.is_empty()
+                && keep.windows(2).all(|w| w[0] < w[1])
+                && keep.iter().all(|&k| k < prepared.records.len()),
+            "identify_kept: records {keep:?} of {}",
+            prepared.records.len()
+        );
+        let mut moments = Moments::zeros(&prepared.total.layout);
+        for &k in keep {
+            moments.add(&prepared.per_record[k]);
+        }
+        self.identify_subset_with(prepared, keep, &moments)
+    }
+
+    /// The chain on the prepared records `keep` with their `moments`.
+    fn identify_subset_with(
+        &self,
+        prepared: &Prepared,
+        keep: &[usize],
+        moments: &Moments,
+    ) -> Result<Identification, Error> {
+        assert!(
+            self.fits_from(prepared),
+            "moments prepared for another layout"
+        );
         let refs: Vec<&Record> = keep.iter().map(|&k| &prepared.records[k]).collect();
         let first = refs.first().ok_or(Error::Data(DataError::NoRecords))?;
         let m = first.outputs.nrows();
@@ -710,19 +823,8 @@ impl ValidIdentifier {
             }));
         }
         let peaks: Vec<usize> = keep.iter().map(|&k| prepared.peaks[k]).collect();
-        // One record: its moments are subtracted as they are (the delete-one jackknife's
-        // results do not depend on how groups are summed); several: their sum.
-        let moments = if left_out.len() == 1 {
-            prepared.total.without(&prepared.per_record[left_out.start])
-        } else {
-            let mut group = prepared.per_record[left_out.start].clone();
-            for mom in &prepared.per_record[left_out.start + 1..left_out.end] {
-                group.add(mom);
-            }
-            prepared.total.without(&group)
-        };
         let decomposed =
-            self.decompose_with(&refs, &peaks, shape, prepared.dt_s, Some(&moments))?;
+            self.decompose_with(&refs, &peaks, shape, prepared.dt_s, Some(moments), true)?;
         self.identify_decomposed(decomposed)
     }
 
@@ -961,11 +1063,48 @@ fn peak_sample(rec: &Record) -> usize {
         .0
 }
 
+/// Records validated once with their OKID moments, for the identification of all of them
+/// and of subsets ([`Identifier::prepare`]).
+pub struct PreparedRecords<'a> {
+    pub(crate) identifier: Identifier,
+    pub(crate) valid: ValidIdentifier,
+    pub(crate) prepared: Prepared<'a>,
+}
+
+impl PreparedRecords<'_> {
+    /// The records prepared.
+    pub fn records(&self) -> &[Record] {
+        self.prepared.records
+    }
+
+    /// Their sampling interval in seconds.
+    pub fn dt_s(&self) -> f64 {
+        self.prepared.dt_s
+    }
+
+    /// The identification of all the records: [`Identifier::identify`] of them, bit for
+    /// bit.
+    pub fn identify(&self) -> Result<Identification, Error> {
+        crate::parallel::on_pool(|| self.valid.identify_prepared(&self.prepared))
+    }
+
+    /// The records `keep` (increasing indices into [`PreparedRecords::records`], at least
+    /// one) identified on their own: [`Identifier::identify`] of those records, bit for bit
+    /// (their moments summed in the same order) when the model order is automatic; at a
+    /// fixed model order the realization is computed to that order only (as for the
+    /// jackknife's resamples), which moves the results by round-off.
+    pub fn identify_subset(&self, keep: &[usize]) -> Result<Identification, Error> {
+        crate::parallel::on_pool(|| self.valid.identify_kept(&self.prepared, keep))
+    }
+}
+
 /// Records validated once, with their OKID moments and input peaks, from which subsets are
 /// identified without repeating the work ([`ValidIdentifier::prepare`]).
+#[derive(Clone)]
 pub(crate) struct Prepared<'a> {
     records: &'a [Record],
     dt_s: f64,
+    shape: record::RecordShape,
     per_record: Vec<Moments>,
     total: Moments,
     peaks: Vec<usize>,
