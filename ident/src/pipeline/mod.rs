@@ -371,8 +371,9 @@ impl Identifier {
     /// Validates `records` (sampled every `dt_s` seconds) once and accumulates their OKID
     /// moments, record by record: the joint identification and those of subsets
     /// ([`PreparedRecords::identify_subset`], the jackknife's resamples:
-    /// [`crate::jackknife::jackknife_prepared`]) then share that work. Fails where [`Identifier::identify`] fails on the records' data
-    /// or lengths (the error may be another of its errors).
+    /// [`crate::jackknife::jackknife_prepared`]) then share that work. Fails where
+    /// [`Identifier::identify`] fails on the records' data or lengths (the error may be
+    /// another of its errors).
     pub fn prepare<'a>(
         &self,
         records: &'a [Record],
