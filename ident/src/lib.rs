@@ -6,7 +6,10 @@
 //! tested structure from input/output records, [ERA/DC](era) turns them into a discrete state
 //! space realization, [`modal`] extracts poles, mode shapes and accuracy indicators,
 //! [`rayleigh`] fits proportional damping and [`mkr`] builds the second-order model
-//! (M, K and damping). [`pipeline::Identifier`] runs the whole chain. [`refine`] then
+//! (M, K and damping). [`pipeline::Identifier`] runs the whole chain;
+//! [`Identifier::prepare`] validates a campaign's records and accumulates their OKID
+//! moments once for the joint identification, subsets of the hits and the [jackknife](mod@jackknife)
+//! error bars ([`jackknife_prepared`]). [`refine`] then
 //! refines M, K and damping by maximum likelihood on all hits at once (any symmetric
 //! damping, with standard errors) and gives the Cramér–Rao bound of a campaign.
 //! [`frf::FrfIdentifier`] reaches the same M, K and damping from measured FRFs instead
