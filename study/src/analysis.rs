@@ -456,8 +456,9 @@ pub fn analyze_located(
     let id = &identifier;
     // The kept hits' records are validated and their OKID moments accumulated once, for
     // the joint identification, the consistency check's core and the jackknife's
-    // resamples. When the joint identification fails and a hit is dropped, the other
-    // hits form `replaced` and are identified from scratch.
+    // resamples. When hits are dropped (the joint identification fails with one, or the
+    // residual check below finds some), the others form `replaced` and are identified
+    // from scratch, the moments prepared then set aside.
     let joint_campaign = campaign.subset(&keep);
     check_orders(&joint_campaign, id)?;
     let prepared = id
