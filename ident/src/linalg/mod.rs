@@ -337,7 +337,8 @@ fn reduce_to_hessenberg(d: &mut [f64], n: usize) {
 /// `eps` times its two diagonal neighbours splits it; one or two eigenvalues are taken
 /// off its end when it has size 1 or 2. Each step chases a 3-row bulge started from the
 /// two eigenvalues of the trailing 2x2 block (ad hoc shifts after 10 and 20 steps without
-/// a deflation), updating the active block only. `None` after `budget` steps.
+/// a deflation; they shift the whole unreduced matrix, whose eigenvalues all get the sum
+/// of the shifts back), updating the active block only. `None` after `budget` steps.
 fn hessenberg_eigenvalues(h: &mut DMatrix<f64>, budget: usize) -> Option<Vec<C64>> {
     let n = h.nrows();
     let d = h.as_mut_slice();
@@ -402,9 +403,11 @@ fn hessenberg_eigenvalues(h: &mut DMatrix<f64>, budget: usize) -> Option<Vec<C64
         steps += 1;
         let (mut x, mut y, mut w) = (x, y, w);
         if since_deflation == 10 || since_deflation == 20 {
-            // Ad hoc shift (a stalled iteration).
+            // Ad hoc shift (a stalled iteration). Every eigenvalue found from now on gets
+            // `shift_sum` added back, so the whole unreduced matrix is shifted, the rows
+            // above the active block too (they hold the eigenvalues still to come).
             shift_sum += x;
-            for i in lo..=hi {
+            for i in 0..=hi {
                 d[at(i, i)] -= x;
             }
             let s = d[at(hi, hi - 1)].abs() + d[at(hi - 1, hi - 2)].abs();

@@ -511,3 +511,57 @@ fn cross_products_match_the_naive_sums_bit_for_bit_for_every_tile_shape() {
         }
     }
 }
+
+/// An ad hoc (exceptional) shift taken while the active block is split from the rows above
+/// it must shift the whole unreduced matrix, as the shift's sum is added to every eigenvalue
+/// found after it. Here a 3 x 3 upper triangular block (eigenvalues 5, 6, 7) sits above a
+/// 4 x 4 cyclic permutation plus 0.5 (eigenvalues 0.5 + the fourth roots of unity), exactly
+/// split from it: the trailing block stalls under the standard shifts (both at 0.5, where
+/// it is orthogonal), so the iteration takes ad hoc shifts of 0.5 with the active block
+/// starting at row 3. Shifting that block alone put the upper block's eigenvalues at 5.5,
+/// 6.5 and 7.5 (spectral radius 7.5).
+#[test]
+fn ad_hoc_shifts_move_the_rows_above_the_active_block_too() {
+    let n = 7;
+    let mut h = DMatrix::<f64>::zeros(n, n);
+    for (i, v) in [5.0, 6.0, 7.0].into_iter().enumerate() {
+        h[(i, i)] = v;
+    }
+    h[(0, 1)] = 1.0;
+    h[(0, 2)] = 2.0;
+    h[(1, 2)] = 3.0;
+    // Coupling above the split: the spectrum does not depend on it.
+    for j in 3..n {
+        h[(0, j)] = 0.25 * j as f64;
+        h[(2, j)] = -0.5;
+    }
+    for i in 3..n {
+        h[(i, i)] = 0.5;
+    }
+    for i in 4..n {
+        h[(i, i - 1)] = 1.0;
+    }
+    h[(3, n - 1)] = 1.0;
+    let mut values = {
+        let mut work = h.clone();
+        hessenberg_eigenvalues(&mut work, iteration_budget(n)).unwrap()
+    };
+    values.sort_by(|a, b| a.re.total_cmp(&b.re).then(a.im.total_cmp(&b.im)));
+    let mut want = vec![
+        C64::new(-0.5, 0.0),
+        C64::new(0.5, -1.0),
+        C64::new(0.5, 1.0),
+        C64::new(1.5, 0.0),
+        C64::new(5.0, 0.0),
+        C64::new(6.0, 0.0),
+        C64::new(7.0, 0.0),
+    ];
+    want.sort_by(|a, b| a.re.total_cmp(&b.re).then(a.im.total_cmp(&b.im)));
+    for (got, want) in values.iter().zip(&want) {
+        // Eigenvalues of a matrix with entries of order 1 to 7, well separated and
+        // well conditioned: round-off of a few eps times the norm (1e-12 fails a shift of
+        // 0.5 by far).
+        assert!((got - want).norm() < 1e-12, "{values:?}");
+    }
+    assert!((spectral_radius(&h).unwrap() - 7.0).abs() < 1e-12);
+}
