@@ -348,7 +348,7 @@ impl OkidParams {
                        rank: usize|
          -> Result<Result<Option<Okid>, f64>, OkidError> {
             let coeffs = layout_p.coefficients(theta, &scales);
-            let radius = linalg::spectral_radius(&companion(&coeffs.b, m))?;
+            let radius = linalg::spectral_radius(&companion_for_radius(&coeffs.b, m))?;
             if !(radius < 1.0 && radius.is_finite()) {
                 return Ok(Err(radius));
             }
@@ -488,7 +488,7 @@ impl OkidParams {
         loop {
             let (theta, rank) = linalg::lstsq_truncated(&svd, &rhs, rcond);
             let coeffs = layout.coefficients(&theta, &scales);
-            let radius = linalg::spectral_radius(&companion(&coeffs.b, m))?;
+            let radius = linalg::spectral_radius(&companion_for_radius(&coeffs.b, m))?;
             if radius < 1.0 && radius.is_finite() {
                 let fit_ss = (&rhs - &r11 * &theta).norm_squared() + rss(p);
                 return Ok(self.finish(
@@ -933,7 +933,9 @@ fn triangular_factor(
     Ok(rfac)
 }
 
-/// Companion matrix of the autoregressive part `y[n] = sum_i b_i y[n-i]`.
+/// Companion matrix of the autoregressive part `y[n] = sum_i b_i y[n-i]`: block row 0 is
+/// `[b_1 .. b_p]`, identity blocks below the block diagonal (`mp x mp`).
+#[cfg(test)]
 fn companion(b: &[DMatrix<f64>], m: usize) -> DMatrix<f64> {
     let p = b.len();
     let mut c = DMatrix::zeros(m * p, m * p);
@@ -943,6 +945,34 @@ fn companion(b: &[DMatrix<f64>], m: usize) -> DMatrix<f64> {
     for i in 1..p {
         for j in 0..m {
             c[(i * m + j, (i - 1) * m + j)] = 1.0;
+        }
+    }
+    c
+}
+
+/// The companion matrix (`companion` in the tests) transposed and with its indices permuted,
+/// a similarity (the same eigenvalues), laid out for the Hessenberg reduction of
+/// [`linalg::spectral_radius`]: index `i m + j` (lag block `i`, output `j`) goes to position
+/// `j p + p - 1 - i`. The identity blocks then sit on the subdiagonal, one chain of `p`
+/// positions per output, and the only entries below it are those of the `m` columns of the
+/// coefficients (positions `j p + p - 1`; entry `(i, j1)` of column `j2` is
+/// `b_{i+1}[j2, j1]`). The reduction skips every column with nothing below the subdiagonal,
+/// so it starts at column `p - 1` and reduces a trailing block of `(m - 1) p + 1` instead of
+/// the whole matrix.
+fn companion_for_radius(b: &[DMatrix<f64>], m: usize) -> DMatrix<f64> {
+    let p = b.len();
+    let pos = |i: usize, j: usize| j * p + p - 1 - i;
+    let mut c = DMatrix::zeros(m * p, m * p);
+    for (i, bi) in b.iter().enumerate() {
+        for j2 in 0..m {
+            for j1 in 0..m {
+                c[(pos(i, j1), pos(0, j2))] = bi[(j2, j1)];
+            }
+        }
+    }
+    for i in 1..p {
+        for j in 0..m {
+            c[(pos(i - 1, j), pos(i, j))] = 1.0;
         }
     }
     c
