@@ -294,7 +294,10 @@ impl EraParams {
     /// generically has rank `states`, so when `H(0)` has a lower rank the compression to
     /// `H(0)`'s row space (see `compressed_svd_of`) cannot succeed and is not tried. (The
     /// three-storey campaigns' jackknife resamples: `H(0)` of rank 42, 60 states; the
-    /// attempt cost about a quarter of their ERA.)
+    /// attempt cost about a quarter of their ERA.) When `H(0)` has fewer rows or columns
+    /// than `states`, its right singular vectors are not computed either, only its values
+    /// (`linalg::right_singular_values`, equal to [`EraParams::decompose_to_order`]'s to
+    /// round-off: they only bound the orders realized).
     pub(crate) fn decompose_observer_to_order(
         &self,
         markov: &[DMatrix<f64>],
@@ -388,6 +391,22 @@ impl EraParams {
                 DMatrix::from_vec(rows, (zeta + 1) * s, data)
             };
             let big0 = block(0);
+            if states.is_some_and(|n| h0.nrows().min(h0.ncols()) < n) {
+                // `H(0)` is too small to have the observer's rank: no compression to try
+                // (`compressed_svd_of` would refuse it), so its right vectors are not needed.
+                let values = linalg::right_singular_values(&h0)?;
+                return Ok(Decomposition {
+                    shape,
+                    dt_s,
+                    outputs: m,
+                    inputs: r,
+                    d: y0.clone(),
+                    h0,
+                    hankel_singular_values: values,
+                    factored: factor(&big0)?,
+                    shifted: block(1),
+                });
+            }
             let h0_svd = linalg::right_svd(&h0)?;
             let stacked_v = |v: &DMatrix<f64>| -> DMatrix<f64> {
                 let rows = h0.nrows();

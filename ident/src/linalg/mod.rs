@@ -777,6 +777,19 @@ impl RightSvd {
 /// columns asked for: the same singular values as [`thin_svd`] (the same factorizations),
 /// at a fraction of its work.
 pub fn right_svd(m: &DMatrix<f64>) -> Result<RightSvd, LinalgError> {
+    right_svd_with(m, true)
+}
+
+/// The singular values of [`right_svd`] without its right singular vectors: for a wide
+/// matrix the SVD of `R^T` runs without accumulating `W` (nalgebra then bidiagonalizes it
+/// otherwise: the values agree with [`right_svd`]'s to round-off, not bit for bit).
+pub fn right_singular_values(m: &DMatrix<f64>) -> Result<DVector<f64>, LinalgError> {
+    Ok(right_svd_with(m, false)?.s)
+}
+
+/// [`right_svd`], with the right vectors of a wide matrix only when `vectors` (without
+/// them its `RightSvd` holds the values only: not for [`RightSvd::v_columns`]).
+fn right_svd_with(m: &DMatrix<f64>, vectors: bool) -> Result<RightSvd, LinalgError> {
     ensure_finite(m, "matrix")?;
     let (rows, cols) = m.shape();
     if rows == 0 || cols < QR_FIRST_RATIO * rows {
@@ -809,7 +822,7 @@ pub fn right_svd(m: &DMatrix<f64>) -> Result<RightSvd, LinalgError> {
     let svd = SVD::try_new(
         rt,
         false,
-        true,
+        vectors,
         f64::EPSILON,
         iteration_budget(rows.max(cols)) * 10,
     )
@@ -818,7 +831,10 @@ pub fn right_svd(m: &DMatrix<f64>) -> Result<RightSvd, LinalgError> {
         rows,
         cols,
     })?;
-    let w = svd.v_t.expect("V requested").transpose();
+    let w = match svd.v_t {
+        Some(v_t) => v_t.transpose(),
+        None => DMatrix::zeros(0, 0),
+    };
     let mut values = DVector::zeros(rows);
     values
         .rows_mut(0, svd.singular_values.len())
