@@ -567,17 +567,19 @@ fn well_conditioned_solve(
     );
     // ||L^-1||_F^2 column by column: column j of L^-1 is zero above row j, so its
     // forward substitution starts there (a sixth of n^3 instead of a half).
-    let l = chol.l_dirty();
+    // Column `i` of `L` below the diagonal is contiguous (column-major): the update runs
+    // over slices (the same operations in the same order as indexing entry by entry).
+    let l = chol.l_dirty().as_slice();
     let mut l_inv_ss = 0.0;
     let mut x = vec![0.0; n];
     for j in 0..n {
         x[j..].fill(0.0);
         x[j] = 1.0;
         for i in j..n {
-            let coeff = x[i] / l[(i, i)];
+            let coeff = x[i] / l[i + i * n];
             x[i] = coeff;
-            for k in i + 1..n {
-                x[k] -= coeff * l[(k, i)];
+            for (xk, &lk) in x[i + 1..].iter_mut().zip(&l[i * n + i + 1..(i + 1) * n]) {
+                *xk -= coeff * lk;
             }
         }
         for v in &x[j..] {
