@@ -957,8 +957,8 @@ fn companion(b: &[DMatrix<f64>], m: usize) -> DMatrix<f64> {
 /// [`linalg::spectral_radius`]: index `i m + j` (lag block `i`, output `j`) goes to position
 /// `j p + p - 1 - i`. The identity blocks then sit on the subdiagonal, one chain of `p`
 /// positions per output, and the only entries below it are those of the `m` columns of the
-/// coefficients (positions `j p + p - 1`; entry `(i, j1)` of column `j2` is
-/// `b_{i+1}[j2, j1]`). The reduction skips every column with nothing below the subdiagonal,
+/// coefficients (column `j2` at position `j2 p + p - 1` holds `b_{i+1}[j2, j1]` in the row
+/// of index `i m + j1`). The reduction skips every column with nothing below the subdiagonal,
 /// so it starts at column `p - 1` and reduces a trailing block of `(m - 1) p + 1` instead of
 /// the whole matrix.
 fn companion_for_radius(b: &[DMatrix<f64>], m: usize) -> DMatrix<f64> {
