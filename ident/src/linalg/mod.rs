@@ -284,6 +284,31 @@ fn reflect(v: &[f64], beta: f64, col: &mut [f64]) {
     }
 }
 
+/// Norms of reflected columns below this (`2^-500`) may have lost their squares to
+/// underflow (a column of entries below `1e-162` has a computed norm of zero, and `2 / |v|^2`
+/// is then infinite), and above [`REFLECT_HUGE`] they may overflow.
+const REFLECT_TINY: f64 = f64::from_bits((1023 - 500) << 52);
+/// `2^500`: see [`REFLECT_TINY`].
+const REFLECT_HUGE: f64 = f64::from_bits((1023 + 500) << 52);
+
+/// The power of two by which to scale a column `x` of computed norm `norm` before forming
+/// its Householder reflection: 1 for an ordinary norm (or a zero or non-finite column);
+/// below [`REFLECT_TINY`] or above [`REFLECT_HUGE`], the one that brings its largest
+/// magnitude into `[1, 2)` (within `2^+-1000`). The reflection `I - beta v v^T` is the same
+/// for any multiple of `v`, and a power of two scales exactly; with `v` of order one,
+/// `beta (v . y)` does not underflow where `y` does not.
+fn reflector_scale(norm: f64, x: &[f64]) -> f64 {
+    if norm.is_nan() || (REFLECT_TINY..=REFLECT_HUGE).contains(&norm) {
+        return 1.0;
+    }
+    let amax = x.iter().fold(0.0, |m: f64, &e| m.max(e.abs()));
+    if amax == 0.0 || !amax.is_finite() {
+        return 1.0;
+    }
+    let e = (amax.log2().floor() as i64).clamp(-1000, 1000);
+    f64::from_bits(((1023 - e) as u64) << 52)
+}
+
 /// Reduces the `n x n` column-major matrix `d` to upper Hessenberg form `Q^T A Q` in place
 /// by Householder reflections (entries below the subdiagonal set to zero, `Q` not kept), as
 /// [`nalgebra::linalg::Hessenberg`] does, but on contiguous column slices: each reflection
@@ -301,14 +326,23 @@ fn reduce_to_hessenberg(d: &mut [f64], n: usize) {
             // Already zero below the subdiagonal: no reflection.
             continue;
         }
-        let alpha = x[0];
         let norm = dot(x, x).sqrt();
-        let s = if alpha >= 0.0 { -norm } else { norm };
         let v = &mut v[..len];
         v.copy_from_slice(x);
+        // The reflection from `v` scaled into the range where its squares are exact (the
+        // same reflection); `x[0]` becomes the column's norm, unscaled.
+        let scale = reflector_scale(norm, v);
+        let norm = if scale == 1.0 {
+            norm
+        } else {
+            v.iter_mut().for_each(|e| *e *= scale);
+            dot(v, v).sqrt()
+        };
+        let alpha = v[0];
+        let s = if alpha >= 0.0 { -norm } else { norm };
         v[0] = alpha - s;
         let beta = 2.0 / dot(v, v);
-        x[0] = s;
+        x[0] = s / scale;
         x[1..].fill(0.0);
         // From the left: rows k + 1.. of columns k + 1...
         for col in d[(k + 1) * n..].chunks_exact_mut(n) {
@@ -668,14 +702,23 @@ impl Householder {
                 steps = k;
                 break;
             }
+            // As in `reduce_to_hessenberg`: the reflector scaled by a power of two (it is
+            // stored so: `beta` goes with it), the diagonal of `R` unscaled.
+            let scale = reflector_scale(norm, v);
+            let norm = if scale == 1.0 {
+                norm
+            } else {
+                v.iter_mut().for_each(|e| *e *= scale);
+                dot(v, v).sqrt()
+            };
             let alpha = v[0];
             let s = if alpha >= 0.0 { -norm } else { norm };
-            diag[k] = s;
+            diag[k] = s / scale;
             let v0 = alpha - s;
             let vnorm2 = v0 * v0 + (norm * norm - alpha * alpha).max(0.0);
             if norm == 0.0 || vnorm2 == 0.0 {
                 betas[k] = 0.0;
-                diag[k] = alpha;
+                diag[k] = alpha / scale;
                 continue;
             }
             v[0] = v0;
@@ -800,6 +843,17 @@ fn right_svd_with(m: &DMatrix<f64>, vectors: bool) -> Result<RightSvd, LinalgErr
             form: RightForm::Direct(svd.v),
         });
     }
+    // A norm whose squares underflow or overflow would set the threshold below to zero or
+    // infinity (and the columns' norms underflow with it): every column would then pass as
+    // round-off and all values come out zero. Those matrices are scaled by a power of two
+    // (exactly), and their values scaled back.
+    let norm = m.norm();
+    let scale = reflector_scale(norm, m.as_slice());
+    if scale != 1.0 {
+        let mut svd = right_svd_with(&(m * scale), vectors)?;
+        svd.s.unscale_mut(scale);
+        return Ok(svd);
+    }
     // Columns of M^T left below eps ||M||_F after the reflections so far are round-off
     // (the rank of a Hankel matrix of a finite-order system is its order): the block
     // dropped has a norm of at most eps sqrt(rows) ||M||_F <= eps rows s_1, below the
@@ -807,7 +861,7 @@ fn right_svd_with(m: &DMatrix<f64>, vectors: bool) -> Result<RightSvd, LinalgErr
     // by its square over themselves, and those dropped are reported as zero. (ERA/DC of
     // paper case 1: the 80 x 240 H(0) stops after 40 = p m reflectors; the full SVD put
     // the 40 values dropped at 2e-15 and below, of a largest 92.)
-    let q = Householder::reduce(m.transpose(), Some(f64::EPSILON * m.norm()));
+    let q = Householder::reduce(m.transpose(), Some(f64::EPSILON * norm));
     if q.steps() == 0 {
         return Ok(RightSvd {
             s: DVector::zeros(rows),

@@ -457,3 +457,84 @@ fn permuted_companion_is_a_similarity_of_the_companion() {
         );
     }
 }
+
+/// Both recursions against the naive sums over nalgebra products, for every shape and
+/// length relation: `m != r` both ways, leads 0 to 3, outputs 1 to 5 (the unrolled 2, 3, 4
+/// and the generic path), fewer input coefficients than terms asked (`a_k` zero past them)
+/// and more, fewer output coefficients than lags (the sums stop at `p`) and more than the
+/// terms (the lags never reached).
+#[test]
+fn markov_recursions_match_the_naive_sums_for_every_shape() {
+    let mut rng = ChaCha8Rng::seed_from_u64(61);
+    let mut worst = 0.0f64;
+    for &(m, r) in &[(1usize, 1usize), (2, 3), (3, 1), (4, 2), (5, 7), (3, 3)] {
+        for leads in 0..=3 {
+            for &(inputs, outputs, count) in &[(4usize, 3usize, 9usize), (12, 2, 5), (3, 12, 6)] {
+                let inputs = inputs + leads;
+                // Coefficients of norm about 0.3 per entry: terms stay of order one.
+                let a: Vec<DMatrix<f64>> = (0..inputs)
+                    .map(|_| DMatrix::from_fn(m, r, |_, _| normal(&mut rng)))
+                    .collect();
+                let b: Vec<DMatrix<f64>> = (0..outputs)
+                    .map(|_| DMatrix::from_fn(m, m, |_, _| 0.3 * normal(&mut rng) / m as f64))
+                    .collect();
+                // g[k] = a_k + sum_{i >= 1} b_i g[k - i], k = -leads .., zero before -leads.
+                let total = leads + count;
+                let mut g: Vec<DMatrix<f64>> = Vec::with_capacity(total);
+                for idx in 0..total {
+                    let mut v = a.get(idx).cloned().unwrap_or_else(|| DMatrix::zeros(m, r));
+                    for (i, bi) in b.iter().enumerate() {
+                        if idx > i {
+                            v += bi * &g[idx - i - 1];
+                        }
+                    }
+                    g.push(v);
+                }
+                let (lead, markov) = system_markov(&a, &b, leads, count);
+                assert_eq!((lead.len(), markov.len()), (leads, count));
+                let scale = g.iter().map(|x| x.amax()).fold(1.0, f64::max);
+                for (j, got) in lead.iter().enumerate() {
+                    let e = (got - &g[leads - 1 - j]).amax() / scale;
+                    worst = worst.max(e);
+                    assert!(
+                        e < 1e-13,
+                        "m {m} r {r} leads {leads}: g[-{}] off by {e:e}",
+                        j + 1
+                    );
+                }
+                for (k, got) in markov.iter().enumerate() {
+                    assert_eq!(got.shape(), (m, r));
+                    let e = (got - &g[leads + k]).amax() / scale;
+                    worst = worst.max(e);
+                    // The same sums through nalgebra's products: round-off of a few terms of
+                    // order one at most (measured: equal bit for bit, the same order); a
+                    // missing, extra or misplaced lag gives order 0.1.
+                    assert!(e < 1e-13, "m {m} r {r} leads {leads}: Y_{k} off by {e:e}");
+                }
+                // h_k = -b_k + sum_{i = 1 .. k-1} b_i h_{k-i}, b_k zero past p.
+                let mut h: Vec<DMatrix<f64>> = Vec::with_capacity(count);
+                for k in 1..=count {
+                    let mut v = b
+                        .get(k - 1)
+                        .map(|x| -x)
+                        .unwrap_or_else(|| DMatrix::zeros(m, m));
+                    for i in 1..k {
+                        if let Some(bi) = b.get(i - 1) {
+                            v += bi * &h[k - i - 1];
+                        }
+                    }
+                    h.push(v);
+                }
+                let got = observer_gain_markov(&b, count);
+                assert_eq!(got.len(), count);
+                let scale = h.iter().map(|x| x.amax()).fold(f64::MIN_POSITIVE, f64::max);
+                for (k, (x, y)) in got.iter().zip(&h).enumerate() {
+                    let e = (x - y).amax() / scale;
+                    worst = worst.max(e);
+                    assert!(e < 1e-13, "m {m} p {outputs}: h_{} off by {e:e}", k + 1);
+                }
+            }
+        }
+    }
+    eprintln!("worst relative difference: {worst:e}");
+}
