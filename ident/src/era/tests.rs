@@ -326,3 +326,169 @@ fn an_observer_with_more_states_than_h0_rank_skips_only_a_failing_compression() 
         assert_eq!(a.singular_values, b.singular_values, "{states} states");
     }
 }
+
+/// Block Hankel matrix `H(k)` of `markov` for `shape`, entry by entry (the module docs).
+fn naive_hankel(markov: &[DMatrix<f64>], shape: &HankelShape, k: usize) -> DMatrix<f64> {
+    let (m, r) = markov[0].shape();
+    DMatrix::from_fn(shape.block_rows * m, shape.block_cols * r, |i, j| {
+        markov[shape.offset + 1 + k + i / m + j / r][(i % m, j % r)]
+    })
+}
+
+/// The correlations from the running diagonal sums against `H(k) H(0)^T` formed by
+/// nalgebra's products, for shapes at the edges of the diagonal walk: one block row or
+/// column (diagonals of one pair, no running update), more block rows than columns and
+/// the reverse, one output and several inputs, several outputs and one input, offsets,
+/// and ERA/DC with `xi` or `zeta` zero; Markov parameters of no system (random entries
+/// with a mean, so that the sums do not cancel to nothing). The Hankel matrices the
+/// decomposition factors (`H(0)`, and `H(1)` for ERA, the correlation Hankel matrix
+/// `[R(1 + i + j)]` for ERA/DC), through the one-input fast path and the general one,
+/// against the same naive matrices.
+#[test]
+fn correlations_and_hankel_matrices_match_naive_products_for_every_shape() {
+    let mut rng = ChaCha8Rng::seed_from_u64(81);
+    let mut worst = 0.0f64;
+    // (outputs m, inputs r, alpha, beta, offset, xi, zeta)
+    for &(m, r, alpha, beta, offset, xi, zeta) in &[
+        (1usize, 1usize, 1usize, 1usize, 0usize, 0usize, 0usize),
+        (1, 1, 5, 1, 0, 2, 2),
+        (1, 1, 1, 7, 3, 0, 1),
+        (2, 3, 4, 2, 1, 1, 0),
+        (3, 1, 2, 9, 0, 2, 2),
+        (3, 2, 6, 5, 5, 0, 3),
+        (2, 2, 3, 3, 0, 0, 0),
+        (1, 4, 7, 3, 2, 3, 1),
+    ] {
+        let shape = HankelShape {
+            block_rows: alpha,
+            block_cols: beta,
+            xi,
+            zeta,
+            offset,
+            correlated: true,
+        };
+        // Two spare terms past what is needed: they must not be read.
+        let markov: Vec<DMatrix<f64>> = (0..shape.markov_needed() + 2)
+            .map(|_| DMatrix::from_fn(m, r, |_, _| crate::testutil::normal(&mut rng) + 0.5))
+            .collect();
+        let h0t = naive_hankel(&markov, &shape, 0).transpose();
+        let corr = correlations(&markov, &shape);
+        assert_eq!(corr.len(), xi + zeta + 2);
+        for (k, got) in corr.iter().enumerate() {
+            let want = naive_hankel(&markov, &shape, k) * &h0t;
+            let e = (got - &want).amax() / want.amax();
+            worst = worst.max(e);
+            // Sums of at most 9 r products of O(1) entries, updated along diagonals of
+            // at most 7 blocks (two products per step): round-off of ~40 terms (measured
+            // at most 3.7e-16 of the largest entry); a misplaced block or a missing
+            // product is of order 0.1 of it.
+            assert!(
+                e < 1e-13,
+                "m={m} r={r} alpha={alpha} beta={beta} R({k}): {e:e}"
+            );
+        }
+        for correlation in [Correlation::None, Correlation::Dc { xi, zeta }] {
+            let params = EraParams::default()
+                .blocks(alpha, beta)
+                .offset(offset)
+                .correlation(correlation)
+                .order(ModelOrder::Fixed(1));
+            let dec = params.decompose(&markov, 1.0).unwrap();
+            // Copies of the same numbers: equal bit for bit.
+            assert_eq!(dec.h0, naive_hankel(&markov, &shape, 0), "m={m} r={r}");
+            if correlation == Correlation::None {
+                assert_eq!(dec.shifted, naive_hankel(&markov, &shape, 1), "m={m} r={r}");
+            } else {
+                let s = alpha * m;
+                let want = DMatrix::from_fn((xi + 1) * s, (zeta + 1) * s, |i, j| {
+                    let k = 1 + i / s + j / s;
+                    (naive_hankel(&markov, &shape, k) * &h0t)[(i % s, j % s)]
+                });
+                let e = (&dec.shifted - &want).amax() / want.amax();
+                // As for R(k) above.
+                assert!(e < 1e-13, "m={m} r={r} Hc(1): {e:e}");
+            }
+        }
+    }
+    eprintln!("worst relative difference: {worst:e}");
+}
+
+/// The compression at its tolerance: Markov parameters of a 6-state system with
+/// `alpha m = 6` (the rank of `H(0)` exactly the states, every direction of its row
+/// space kept) plus noise of levels on both sides of the residual tolerance. Whichever
+/// branch is taken, a compressed SVD returned must be that of the correlation Hankel
+/// matrix to within its residual (Weyl: each singular value moves by at most the
+/// spectral norm of what the compression drops, at most 1e-12 of the Frobenius norm),
+/// and the noise levels must reach both branches.
+#[test]
+fn compression_at_its_tolerance_is_within_its_residual_of_the_full_svd() {
+    let mut rng = ChaCha8Rng::seed_from_u64(82);
+    let (n, m, r) = (6, 2, 1);
+    let sys = random_stable_system(&mut rng, n, m, r, 0.9);
+    let clean = sys.markov(60);
+    let shape = HankelShape {
+        block_rows: n / m,
+        block_cols: 12,
+        xi: 2,
+        zeta: 2,
+        offset: 1,
+        correlated: true,
+    };
+    let noise: Vec<DMatrix<f64>> = clean
+        .iter()
+        .map(|y| DMatrix::from_fn(m, r, |_, _| crate::testutil::normal(&mut rng) * y.amax()))
+        .collect();
+    let (mut taken, mut declined) = (0, 0);
+    let mut worst = 0.0f64;
+    for level in (0..=18).map(|k| 10f64.powf(-17.0 + 0.5 * k as f64)) {
+        let markov: Vec<DMatrix<f64>> = clean
+            .iter()
+            .zip(&noise)
+            .map(|(y, e)| y + e * level)
+            .collect();
+        let corr = correlations(&markov, &shape);
+        let s = corr[0].nrows();
+        let big0 = DMatrix::from_fn(3 * s, 3 * s, |i, j| corr[i / s + j / s][(i % s, j % s)]);
+        let h0 = naive_hankel(&markov, &shape, 0);
+        let stacked = |v: &DMatrix<f64>| {
+            let rows = h0.nrows();
+            let mut out = DMatrix::zeros(3 * rows, v.ncols());
+            for i in 0..3 {
+                out.view_mut((i * rows, 0), (rows, v.ncols()))
+                    .copy_from(&(naive_hankel(&markov, &shape, i) * v));
+            }
+            out
+        };
+        let h0_svd = linalg::thin_svd(&h0).unwrap();
+        assert_eq!(h0_svd.rank(f64::EPSILON * 12.0), n);
+        let want = linalg::thin_svd(&big0).unwrap();
+        match compressed_svd(&corr, stacked, &h0_svd, 2, &big0).unwrap() {
+            None => declined += 1,
+            Some(got) => {
+                taken += 1;
+                let bound = COMPRESSION_TOLERANCE * big0.norm();
+                for (i, (a, b)) in got.s.iter().zip(&want.s).enumerate() {
+                    let e = (a - b).abs() / bound;
+                    worst = worst.max(e);
+                    // Weyl's bound, plus the two SVDs' round-off (1e-15 of s_1, a
+                    // thousandth of the bound): measured at most 0.17 of the bound.
+                    assert!(e < 1.0, "level {level:e}: s{i} {a} against {b}");
+                }
+                // The factorization reproduces the matrix to its residual.
+                // (Values past the columns of its `U` are the zeros of the dropped part.)
+                let kept = got.u.ncols();
+                assert!(got.s.iter().skip(kept).all(|&x| x == 0.0));
+                let rebuilt = &got.u
+                    * DMatrix::from_diagonal(&got.s.rows(0, kept).into_owned())
+                    * got.v.columns(0, kept).transpose();
+                let e = (&rebuilt - &big0).norm() / big0.norm();
+                assert!(
+                    e < 2.0 * COMPRESSION_TOLERANCE,
+                    "level {level:e}: rebuilt {e:e}"
+                );
+            }
+        }
+    }
+    eprintln!("taken {taken}, declined {declined}, worst {worst:e} of the bound");
+    assert!(taken > 0 && declined > 0);
+}

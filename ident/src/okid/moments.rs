@@ -507,3 +507,59 @@ pub(crate) fn nested_rss(gram: &DMatrix<f64>, layout: &Layout) -> Option<Vec<f64
     debug_assert_eq!(rss.len(), layout.p);
     Some(rss)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::testutil::normal;
+    use rand::SeedableRng;
+    use rand::rngs::ChaCha8Rng;
+
+    /// The full correlations when the largest lag difference sets the transform length
+    /// (`4 (dmax + 1)` above the 8192 block: observer orders past 2047, too large for the
+    /// Gram oracle), on both sides of the one-block limit `len + dmax = 4 (dmax + 1)` and
+    /// over several blocks, against the naive sums at the first, middle and last lags of
+    /// every ordered channel pair (one input, two outputs: an odd channel count, one
+    /// channel transformed alone).
+    #[test]
+    fn full_correlations_with_the_lags_setting_the_transform_length() {
+        let mut rng = ChaCha8Rng::seed_from_u64(74);
+        let (r, m, dmax) = (1, 2, 2100);
+        let limit = 4 * (dmax + 1) - dmax;
+        let mut worst = 0.0f64;
+        for len in [limit - 1, limit, limit + 1, 3 * limit + 5] {
+            let ins: Vec<f64> = (0..r * len).map(|_| normal(&mut rng)).collect();
+            let outs: Vec<f64> = (0..m * len).map(|_| normal(&mut rng) + 0.5).collect();
+            let corr = full_correlations(&ins, &outs, r, m, len, dmax);
+            let nch = r + m;
+            let x = |c: usize, k: usize| {
+                if c < r {
+                    ins[c + r * k]
+                } else {
+                    outs[c - r + m * k]
+                }
+            };
+            let ss: Vec<f64> = (0..nch)
+                .map(|c| (0..len).map(|k| x(c, k).powi(2)).sum())
+                .collect();
+            for a in 0..nch {
+                for b in 0..nch {
+                    for d in [0, 1, 2, dmax / 2, dmax - 1, dmax] {
+                        let want: f64 = (0..len.saturating_sub(d))
+                            .map(|k| x(a, k) * x(b, k + d))
+                            .sum();
+                        let got = corr[(a * nch + b) * (dmax + 1) + d];
+                        let e = (got - want).abs() / (ss[a] * ss[b]).sqrt();
+                        worst = worst.max(e);
+                        // FFT round-off, eps log2(n) of sqrt(sum x_a^2 sum x_b^2) (the
+                        // docs of `full_correlations`): 1e-12 leaves room for the block
+                        // sums (measured 4.2e-15); one product missing is 4e-5 of the
+                        // scale or more.
+                        assert!(e < 1e-12, "len {len} ({a}, {b}) lag {d}: {e:e}");
+                    }
+                }
+            }
+        }
+        eprintln!("worst relative difference: {worst:e}");
+    }
+}

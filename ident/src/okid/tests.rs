@@ -293,7 +293,9 @@ fn regression_matrix(records: &[Record], layout: &Layout) -> DMatrix<f64> {
 #[test]
 fn lagged_products_equal_the_gram_matrix_of_the_regression() {
     let mut rng = ChaCha8Rng::seed_from_u64(31);
-    // (outputs, inputs, order, leads); record lengths cross the correlation block size.
+    // (outputs, inputs, order, leads); records of 40 to 4200 samples, each within one
+    // correlation block (the block boundaries are crossed in
+    // `lagged_products_at_every_block_boundary_equal_the_gram_matrix`).
     // Skipping the first equations of each record (unknown initial state) as well.
     for &(m, r, p, q, skip) in &[
         (2usize, 1usize, 5usize, 0usize, 0usize),
@@ -537,4 +539,237 @@ fn markov_recursions_match_the_naive_sums_for_every_shape() {
         }
     }
     eprintln!("worst relative difference: {worst:e}");
+}
+
+/// Random records (no system behind them: the Gram matrix does not care), channels with
+/// different means and scales so that no two columns of the regression are alike.
+fn random_records(rng: &mut ChaCha8Rng, r: usize, m: usize, lengths: &[usize]) -> Vec<Record> {
+    lengths
+        .iter()
+        .map(|&len| {
+            let inputs = DMatrix::from_fn(r, len, |ch, _| (ch as f64 + 1.0) * normal(rng) + 0.3);
+            let outputs = DMatrix::from_fn(m, len, |ch, _| {
+                normal(rng) / (ch as f64 + 1.0) - 0.2 * ch as f64
+            });
+            Record::new(inputs, outputs)
+        })
+        .collect()
+}
+
+/// Largest entry difference of the Gram matrices, relative to the oracle's largest entry.
+fn gram_error(got: &Moments, records: &[Record], layout: &Layout) -> f64 {
+    let z = regression_matrix(records, layout);
+    let want = z.transpose() * &z;
+    assert_eq!(got.equations, z.nrows());
+    (&got.gram - &want).amax() / want.amax()
+}
+
+/// The FFT correlations at every boundary of their blocks: records whose length plus the
+/// largest lag difference `dmax = p + q` is one below, at and one above the one-block
+/// limit (8192), lengths at, one below and one above the 8192 mark itself, one sample
+/// past one and two blocks of `8192 - dmax` (a last block of one sample, whose extension
+/// is empty), a last block exactly `dmax` long, records just long enough for the order,
+/// the leads and the skipped equations, and tiny transforms of odd length (3 and 9),
+/// with several inputs and outputs either way round, leads, and the unknown-initial-state
+/// layout. Oracle: the Gram matrix of the regression written out row by row.
+#[test]
+fn lagged_products_at_every_block_boundary_equal_the_gram_matrix() {
+    let mut rng = ChaCha8Rng::seed_from_u64(71);
+    let mut worst = 0.0f64;
+    // (outputs, inputs, order, leads, skipped equations)
+    for &(m, r, p, q, skip) in &[
+        (1usize, 1usize, 1usize, 0usize, 0usize),
+        (2, 3, 3, 2, 0),
+        (3, 1, 2, 1, 2),
+        (1, 2, 4, 3, 4),
+        (2, 2, 1, 0, 1),
+    ] {
+        let layout = Layout { r, m, q, p, skip };
+        let dmax = p + q;
+        let block = 8192 - dmax;
+        let shortest = p + q + skip + 1;
+        let mut lengths = vec![
+            shortest,
+            shortest + 1,
+            // Transforms of 3 and 9 points when they fit (`fft_len` of 2^a 3^b).
+            3usize.saturating_sub(dmax).max(shortest),
+            9usize.saturating_sub(dmax).max(shortest),
+            8191 - dmax,
+            8192 - dmax,
+            8193 - dmax,
+            8191,
+            8192,
+            8193,
+            block + 1,
+            block + dmax,
+            2 * block,
+            2 * block + 1,
+            16384 + 1,
+        ];
+        lengths.sort_unstable();
+        for &len in &lengths {
+            let records = random_records(&mut rng, r, m, &[len]);
+            let got = Moments::of_record(&records[0], &layout);
+            let e = gram_error(&got, &records, &layout);
+            worst = worst.max(e);
+            // The FFT's round-off, eps log2(n) of sqrt(sum x_a^2 sum x_b^2) (module docs),
+            // against sums of up to 16385 products: measured at most 4.4e-15 of the
+            // largest entry (one input, one output); a single product left in or out is
+            // 6e-5 of it or more.
+            assert!(
+                e < 1e-12,
+                "m={m} r={r} p={p} q={q} skip={skip} len={len}: {e:e}"
+            );
+        }
+        // All of them together (records of different lengths summed in order).
+        let records = random_records(&mut rng, r, m, &lengths);
+        let refs: Vec<&Record> = records.iter().collect();
+        let got = Moments::of_records(&refs, &layout);
+        let e = gram_error(&got, &records, &layout);
+        worst = worst.max(e);
+        // Same budget: sums of ~75000 products (measured at most 1.6e-14).
+        assert!(e < 1e-12, "m={m} r={r} p={p} q={q} skip={skip} all: {e:e}");
+    }
+    eprintln!("worst relative difference: {worst:e}");
+}
+
+/// A resample's moments as the total minus some records' equal the moments accumulated
+/// from the other records directly, for every subset of four records (of lengths on
+/// both sides of the block limit), and removing the records one at a time in any order
+/// gives the same; the channel sums of squares, samples and equations follow.
+#[test]
+fn moments_without_any_subset_equal_those_of_the_rest() {
+    let mut rng = ChaCha8Rng::seed_from_u64(72);
+    let (m, r, p, q, skip) = (2, 2, 3, 1, 3);
+    let layout = Layout { r, m, q, p, skip };
+    let records = random_records(&mut rng, r, m, &[9, 700, 8190, 9000]);
+    let each: Vec<Moments> = records
+        .iter()
+        .map(|rec| Moments::of_record(rec, &layout))
+        .collect();
+    let refs: Vec<&Record> = records.iter().collect();
+    let total = Moments::of_records(&refs, &layout);
+    let scale = total.gram.amax();
+    let mut worst = 0.0f64;
+    for mask in 0u32..16 {
+        let (out, kept): (Vec<usize>, Vec<usize>) = (0..4).partition(|&i| mask & (1 << i) != 0);
+        let mut removed = Moments::zeros(&layout);
+        for &i in out.iter().rev() {
+            removed.add(&each[i]);
+        }
+        let got = total.without(&removed);
+        let kept_refs: Vec<&Record> = kept.iter().map(|&i| &records[i]).collect();
+        let want = Moments::of_records(&kept_refs, &layout);
+        // One at a time, in the opposite order.
+        let mut stepwise = total.clone();
+        for &i in &out {
+            stepwise = stepwise.without(&each[i]);
+        }
+        for (name, g) in [("at once", &got), ("one by one", &stepwise)] {
+            let e = (&g.gram - &want.gram).amax() / scale;
+            worst = worst.max(e);
+            // Cancellation against the removed records' share: round-off of the total's
+            // entries (measured at most 2.0e-16 of the largest entry); relative to the
+            // total's scale, since an all-removed resample is zero up to that round-off.
+            assert!(e < 1e-13, "mask {mask:04b} {name}: {e:e}");
+            assert_eq!(g.equations, want.equations);
+            // The channels' RMS (sums of squares over samples, both subtracted): the
+            // same cancellation, relative to the total's sums of squares; 1 for an empty
+            // resample either way.
+            let (gs, ws, ts) = (g.scales(), want.scales(), total.scales());
+            for ((a, b), t) in
+                gs.u.iter()
+                    .chain(&gs.y)
+                    .zip(ws.u.iter().chain(&ws.y))
+                    .zip(ts.u.iter().chain(&ts.y))
+            {
+                assert!(
+                    (a * a - b * b).abs() <= 1e-12 * t * t,
+                    "mask {mask:04b}: rms {a} {b}"
+                );
+            }
+        }
+        if !kept.is_empty() {
+            let kept_records: Vec<Record> = kept.iter().map(|&i| records[i].clone()).collect();
+            let e = gram_error(&got, &kept_records, &layout) * want.gram.amax() / scale;
+            assert!(e < 1e-13, "mask {mask:04b} against the regression: {e:e}");
+        }
+    }
+    eprintln!("worst relative difference: {worst:e}");
+}
+
+/// The Gram matrix of every lower order cut out of the moments and scaled equals that of
+/// the lower-order regression (same leads and skipped equations) with its channels
+/// scaled, and the nested residual sums of squares from the elimination equal the least
+/// squares residuals of each order (nalgebra's SVD solve of the scaled regression).
+#[test]
+fn scaled_gram_and_nested_rss_match_the_regression_of_every_order() {
+    let mut rng = ChaCha8Rng::seed_from_u64(73);
+    let mut worst = 0.0f64;
+    for &(m, r, p, q, skip) in &[(2usize, 1usize, 4usize, 2usize, 4usize), (1, 3, 3, 0, 0)] {
+        let layout = Layout { r, m, q, p, skip };
+        let records = random_records(&mut rng, r, m, &[300, 8200, 57]);
+        let refs: Vec<&Record> = records.iter().collect();
+        let moments = Moments::of_records(&refs, &layout);
+        let s = moments.scales();
+        // Scales against the channels' RMS over all samples.
+        for ch in 0..r + m {
+            let (mut ss, mut n) = (0.0, 0);
+            for rec in &records {
+                for k in 0..rec.len() {
+                    let v = if ch < r {
+                        rec.inputs[(ch, k)]
+                    } else {
+                        rec.outputs[(ch - r, k)]
+                    };
+                    ss += v * v;
+                    n += 1;
+                }
+            }
+            let want = (ss / n as f64).sqrt();
+            let got = if ch < r { s.u[ch] } else { s.y[ch - r] };
+            // Square root of an FFT lag-0 sum: round-off of the FFT (eps log2 n).
+            assert!((got / want - 1.0).abs() < 1e-13, "channel {ch}");
+        }
+        let rss = nested_rss(&moments.scaled_gram(&layout, &s), &layout).unwrap();
+        for order in 1..=p {
+            let lower = Layout { p: order, ..layout };
+            let got = moments.scaled_gram(&lower, &s);
+            let mut z = regression_matrix(&records, &lower);
+            let ncols = lower.columns(order);
+            for j in 0..ncols + m {
+                // Channel of column j: leads and lag 0 inputs, then lags of all
+                // channels, then the targets (the module docs' layout).
+                let ch = if j < (q + 1) * r {
+                    j % r
+                } else if j < ncols {
+                    (j - (q + 1) * r) % (r + m)
+                } else {
+                    r + j - ncols
+                };
+                let sc = if ch < r { s.u[ch] } else { s.y[ch - r] };
+                z.column_mut(j).scale_mut(1.0 / sc);
+            }
+            let want = z.transpose() * &z;
+            let e = (&got - &want).amax() / want.amax();
+            // As in the block-boundary test: FFT round-off (measured 1e-15).
+            assert!(e < 1e-12, "order {order}: {e:e}");
+            let x = z.columns(0, ncols).into_owned();
+            let y = z.columns(ncols, m).into_owned();
+            let theta = x.clone().svd(true, true).solve(&y, 1e-14).unwrap();
+            let want_rss = (&y - &x * theta).norm_squared();
+            let e = (rss[order - 1] - want_rss).abs() / want_rss;
+            worst = worst.max(e);
+            // Random regressors: the scaled regression's condition is ~10, so the normal
+            // equations lose eps * 1e2 at most (measured 6.4e-16); 1e-10 still fails the
+            // residual of any neighbouring order (they differ by 1.7e-4 to 7.8e-3
+            // relative here, measured).
+            assert!(
+                e < 1e-10,
+                "order {order}: rss {} against {want_rss}",
+                rss[order - 1]
+            );
+        }
+    }
+    eprintln!("worst relative rss difference: {worst:e}");
 }
