@@ -394,38 +394,33 @@ impl EraParams {
             if states.is_some_and(|n| h0.nrows().min(h0.ncols()) < n) {
                 // `H(0)` is too small to have the observer's rank: no compression to try
                 // (`compressed_svd_of` would refuse it), so its right vectors are not needed.
-                let values = linalg::right_singular_values(&h0)?;
-                return Ok(Decomposition {
-                    shape,
-                    dt_s,
-                    outputs: m,
-                    inputs: r,
-                    d: y0.clone(),
-                    h0,
-                    hankel_singular_values: values,
-                    factored: factor(&big0)?,
-                    shifted: block(1),
-                });
-            }
-            let h0_svd = linalg::right_svd(&h0)?;
-            let stacked_v = |v: &DMatrix<f64>| -> DMatrix<f64> {
-                let rows = h0.nrows();
-                let mut out = DMatrix::zeros((xi + 1) * rows, v.ncols());
-                for i in 0..=xi {
-                    let mut view = out.view_mut((i * rows, 0), (rows, v.ncols()));
-                    if i == 0 {
-                        view.gemm(1.0, &h0, v, 0.0);
-                    } else {
-                        view.gemm(1.0, &hankel(i), v, 0.0);
+                (
+                    linalg::right_singular_values(&h0)?,
+                    factor(&big0)?,
+                    block(1),
+                )
+            } else {
+                let h0_svd = linalg::right_svd(&h0)?;
+                let stacked_v = |v: &DMatrix<f64>| -> DMatrix<f64> {
+                    let rows = h0.nrows();
+                    let mut out = DMatrix::zeros((xi + 1) * rows, v.ncols());
+                    for i in 0..=xi {
+                        let mut view = out.view_mut((i * rows, 0), (rows, v.ncols()));
+                        if i == 0 {
+                            view.gemm(1.0, &h0, v, 0.0);
+                        } else {
+                            view.gemm(1.0, &hankel(i), v, 0.0);
+                        }
                     }
-                }
-                out
-            };
-            let factored = match compressed_svd_of(stacked_v, &h0_svd, &big0, &factor, states)? {
-                Some(svd) => svd,
-                None => factor(&big0)?,
-            };
-            (h0_svd.s, factored, block(1))
+                    out
+                };
+                let factored = match compressed_svd_of(stacked_v, &h0_svd, &big0, &factor, states)?
+                {
+                    Some(svd) => svd,
+                    None => factor(&big0)?,
+                };
+                (h0_svd.s, factored, block(1))
+            }
         } else {
             let svd = factor_with(&h0, true)?;
             (svd.s.clone(), svd, hankel(1))

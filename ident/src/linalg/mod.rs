@@ -309,6 +309,18 @@ fn reflector_scale(norm: f64, x: &[f64]) -> f64 {
     f64::from_bits(((1023 - e) as u64) << 52)
 }
 
+/// `v` (a column of computed norm `norm`) scaled in place by [`reflector_scale`], with that
+/// scale and the norm of the scaled `v` (`norm` itself when the scale is 1): what both
+/// Householder reductions form their reflection from.
+fn scale_reflector(norm: f64, v: &mut [f64]) -> (f64, f64) {
+    let scale = reflector_scale(norm, v);
+    if scale == 1.0 {
+        return (1.0, norm);
+    }
+    v.iter_mut().for_each(|e| *e *= scale);
+    (scale, dot(v, v).sqrt())
+}
+
 /// Reduces the `n x n` column-major matrix `d` to upper Hessenberg form `Q^T A Q` in place
 /// by Householder reflections (entries below the subdiagonal set to zero, `Q` not kept), as
 /// [`nalgebra::linalg::Hessenberg`] does, but on contiguous column slices: each reflection
@@ -331,13 +343,7 @@ fn reduce_to_hessenberg(d: &mut [f64], n: usize) {
         v.copy_from_slice(x);
         // The reflection from `v` scaled into the range where its squares are exact (the
         // same reflection); `x[0]` becomes the column's norm, unscaled.
-        let scale = reflector_scale(norm, v);
-        let norm = if scale == 1.0 {
-            norm
-        } else {
-            v.iter_mut().for_each(|e| *e *= scale);
-            dot(v, v).sqrt()
-        };
+        let (scale, norm) = scale_reflector(norm, v);
         let alpha = v[0];
         let s = if alpha >= 0.0 { -norm } else { norm };
         v[0] = alpha - s;
@@ -704,13 +710,7 @@ impl Householder {
             }
             // As in `reduce_to_hessenberg`: the reflector scaled by a power of two (it is
             // stored so: `beta` goes with it), the diagonal of `R` unscaled.
-            let scale = reflector_scale(norm, v);
-            let norm = if scale == 1.0 {
-                norm
-            } else {
-                v.iter_mut().for_each(|e| *e *= scale);
-                dot(v, v).sqrt()
-            };
+            let (scale, norm) = scale_reflector(norm, v);
             let alpha = v[0];
             let s = if alpha >= 0.0 { -norm } else { norm };
             diag[k] = s / scale;

@@ -116,6 +116,33 @@ fn errors_are_typed() {
     }
 }
 
+/// A structural mode of continuous pole `pole` (frequency `|pole| / 2 pi`), with perfect
+/// indicators: what the oracles below hand to MKR.
+fn oracle_mode(
+    pole: C64,
+    damping_ratio: f64,
+    shape: nalgebra::DVector<C64>,
+    residue: DMatrix<C64>,
+) -> Mode {
+    Mode {
+        frequency_hz: pole.norm() / (2.0 * std::f64::consts::PI),
+        damping_ratio,
+        eigenvalue: pole,
+        pole,
+        shape,
+        residue,
+        indicators: crate::modal::Indicators {
+            emac_output: None,
+            emac_input: None,
+            mpc: 1.0,
+            msv: 1.0,
+            msv_relative: 1.0,
+            cmi: 1.0,
+        },
+        structural: true,
+    }
+}
+
 /// Exact continuous modes of `M q'' + R q' + K q = f`, accelerations at every DOF, forces
 /// at `input_dofs`, without the crate's eigensolver: poles from nalgebra's eigenvalues of
 /// the state matrix, the shape `phi` as the null vector of `lambda^2 M + lambda R + K`
@@ -129,10 +156,7 @@ fn oracle_modes(
 ) -> (Vec<Mode>, DMatrix<f64>) {
     let n = m.nrows();
     let mi = m.clone().try_inverse().unwrap();
-    let mut a = DMatrix::zeros(2 * n, 2 * n);
-    a.view_mut((0, n), (n, n)).fill_with_identity();
-    a.view_mut((n, 0), (n, n)).copy_from(&-(&mi * k));
-    a.view_mut((n, n), (n, n)).copy_from(&-(&mi * r));
+    let (a, _, _, _) = testkit::ShearFrame::new(m.clone(), k.clone(), r.clone()).continuous(0);
     let to_c = |x: &DMatrix<f64>| x.map(|v| C64::new(v, 0.0));
     let modes = a
         .complex_eigenvalues()
@@ -150,23 +174,7 @@ fn oracle_modes(
             let residue = DMatrix::from_fn(n, input_dofs.len(), |i, j| {
                 lambda * lambda * phi[i] * phi[input_dofs[j]] / norm
             });
-            Mode {
-                frequency_hz: lambda.norm() / (2.0 * std::f64::consts::PI),
-                damping_ratio: -lambda.re / lambda.norm(),
-                eigenvalue: lambda,
-                pole: lambda,
-                shape: phi,
-                residue,
-                indicators: crate::modal::Indicators {
-                    emac_output: None,
-                    emac_input: None,
-                    mpc: 1.0,
-                    msv: 1.0,
-                    msv_relative: 1.0,
-                    cmi: 1.0,
-                },
-                structural: true,
-            }
+            oracle_mode(lambda, -lambda.re / lambda.norm(), phi, residue)
         })
         .collect();
     let d = DMatrix::from_fn(n, input_dofs.len(), |i, j| mi[(i, input_dofs[j])]);
@@ -289,23 +297,12 @@ fn repeated_and_close_frequencies_give_back_classically_damped_systems() {
                         let residue = DMatrix::from_fn(2, 1, |i, _| {
                             pole * pole * phi[(i, j)] * phi[(drive, j)] / C64::new(0.0, 2.0 * wd)
                         });
-                        Mode {
-                            frequency_hz: pole.norm() / (2.0 * std::f64::consts::PI),
-                            damping_ratio: zeta[j],
-                            eigenvalue: pole,
+                        oracle_mode(
                             pole,
-                            shape: phi.column(j).map(|x| C64::new(x, 0.0)),
+                            zeta[j],
+                            phi.column(j).map(|x| C64::new(x, 0.0)),
                             residue,
-                            indicators: crate::modal::Indicators {
-                                emac_output: None,
-                                emac_input: None,
-                                mpc: 1.0,
-                                msv: 1.0,
-                                msv_relative: 1.0,
-                                cmi: 1.0,
-                            },
-                            structural: true,
-                        }
+                        )
                     })
                     .collect();
                 let mi = m.clone().try_inverse().unwrap();
