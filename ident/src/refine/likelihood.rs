@@ -746,7 +746,7 @@ pub(crate) fn evaluate(
             let mut work = BinWork::new(model);
             let mut tx = vec![ZERO; m * s];
             let mut xb = vec![ZERO; m * s];
-            let mut e = vec![ZERO; m];
+            let mut e = vec![ZERO; m * hits_here];
             let mut xtx_upper = vec![0.0; s * s];
             let end = (b0 + BLOCK_BINS).min(nb);
             // The block's model as kept from an evaluation at the same parameters, or
@@ -798,8 +798,10 @@ pub(crate) fn evaluate(
                         xtx_upper[q1 + q2 * s] += acc;
                     }
                 }
+                // The hits' residuals of the bin as the columns of one right-hand side, whitened
+                // by one forward substitution (each column the same operations as alone).
                 let g = &work.g;
-                for (rv, &h) in rcols.iter_mut().zip(&group.hits) {
+                for (e, &h) in e.chunks_exact_mut(m).zip(&group.hits) {
                     let y = &spectra.y[h].as_slice()[bi * m..(bi + 1) * m];
                     let u = &spectra.u[h].as_slice()[bi * r..(bi + 1) * r];
                     for i in 0..m {
@@ -809,9 +811,11 @@ pub(crate) fn evaluate(
                         }
                         e[i] = v;
                     }
-                    dense::forward_solve(&work.l, m, &mut e, 1);
+                }
+                dense::forward_solve(&work.l, m, &mut e, hits_here);
+                for (rv, e) in rcols.iter_mut().zip(e.chunks_exact(m)) {
                     let rv = &mut rv[2 * lb * m..2 * (lb + 1) * m];
-                    for (pair, ei) in rv.chunks_exact_mut(2).zip(&e) {
+                    for (pair, ei) in rv.chunks_exact_mut(2).zip(e) {
                         pair[0] = sc * ei.re;
                         pair[1] = sc * ei.im;
                     }
