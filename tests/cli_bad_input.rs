@@ -359,3 +359,100 @@ fn record_too_short_for_the_orders() {
         ],
     );
 }
+
+/// A missing sample is named at its line. The simulator prints times to
+/// the last bit, and the gap moved the end-point interval by more than
+/// that: the refusal named line 3 of a 2048-row file with the gap at line
+/// 502.
+#[test]
+fn missing_sample_is_named_at_its_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = campaign(&dir.path().join("c"), "paper-case1.toml", 1);
+    let text = std::fs::read_to_string(&files[0]).unwrap();
+    let kept: Vec<&str> = text
+        .lines()
+        .enumerate()
+        .filter(|&(i, _)| i + 1 != 502)
+        .map(|(_, l)| l)
+        .collect();
+    let gap = dir.path().join("gap.csv");
+    std::fs::write(&gap, kept.join("\n") + "\n").unwrap();
+    refused(
+        &[s(&gap)],
+        &[
+            "gap.csv: line 502, column 1 (time): time step 0.03125 differs from the median step 0.015625",
+            "missing or repeated sample?",
+        ],
+    );
+}
+
+/// Declared units are converted: records in g and kN identify the same M,
+/// K and damping as the same records in m/s^2 and N (they were read as
+/// m/s^2 and N: M 9.8 times too large, or 1000 times too small, exit 0).
+/// A unit that is no acceleration (a displacement, a voltage) is refused
+/// naming the file and channel.
+#[test]
+fn declared_units_are_converted_or_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = campaign(&dir.path().join("c"), "paper-case1.toml", 4);
+    // Every value divided by its unit's SI value, printed to the last bit.
+    let convert = |src: &str, name: &str, units: [(&str, f64); 3]| -> String {
+        edited(src, dir.path(), name, |i, l| {
+            if i == 1 {
+                let mut h = l.to_string();
+                for (old, (new, _)) in ["force [N]", "acc1 [m/s^2]", "acc2 [m/s^2]"]
+                    .iter()
+                    .zip(units)
+                {
+                    h = h.replace(old, new);
+                }
+                return h;
+            }
+            let mut cells: Vec<String> = l.split(',').map(String::from).collect();
+            for (c, (_, si)) in units.iter().enumerate() {
+                let v: f64 = cells[c + 1].parse().unwrap();
+                cells[c + 1] = format!("{:e}", v / si);
+            }
+            cells.join(",")
+        })
+    };
+    let g = 9.806_65;
+    let mut converted = vec![convert(
+        &files[0],
+        "kn.csv",
+        [("force [kN]", 1e3), ("acc1 [g]", g), ("acc2 [g]", g)],
+    )];
+    converted.push(convert(
+        &files[1],
+        "g.csv",
+        [("force [N]", 1.0), ("acc1 [g]", g), ("acc2 [mm/s^2]", 1e-3)],
+    ));
+    converted.extend_from_slice(&files[2..]);
+    let si = identify_no_uncertainty(&files, &[]);
+    let other = identify_no_uncertainty(&converted, &[]);
+    for key in ["mass", "stiffness", "damping_rayleigh"] {
+        // The values come back from the units within a rounding or two
+        // (1e-16 relative); the identification's own conditioning makes
+        // that at most ~1e-12 of the matrices.
+        let e = rel_fro(&matrix(&other[key]), &matrix(&si[key]));
+        assert!(e < 1e-9, "{key}: {e}");
+    }
+    for (unit, what) in [
+        ("mm", "a displacement unit"),
+        ("V", "not an acceleration unit"),
+    ] {
+        let bad = edited(&files[0], dir.path(), "bad.csv", |i, l| {
+            if i == 1 {
+                l.replace("acc2 [m/s^2]", &format!("acc2 [{unit}]"))
+            } else {
+                l.into()
+            }
+        });
+        refused(
+            &[&files[1], &bad],
+            &[&format!(
+                "bad.csv: channel #3 acc2 [{unit}] is in '{unit}', {what}; outputs must be accelerations"
+            )],
+        );
+    }
+}

@@ -153,6 +153,31 @@ pub enum RecordError {
         /// The channel's name.
         channel: String,
     },
+
+    /// A selected channel declares a unit that is not a force (inputs) or
+    /// an acceleration (outputs): its values cannot be brought to N or m/s^2.
+    #[error(
+        "{}: channel {channel} is in '{unit}', {problem}; {} must be {}",
+        path.display(),
+        if *input { "inputs" } else { "outputs" },
+        if *input {
+            "forces (N, kN, lbf or kgf; converted to N)"
+        } else {
+            "accelerations (m/s^2, mm/s^2, cm/s^2, g, in/s^2 or ft/s^2; converted to m/s^2)"
+        }
+    )]
+    ChannelUnit {
+        /// The record whose channels were selected.
+        path: PathBuf,
+        /// The channel, labelled `#k name [unit]`.
+        channel: String,
+        /// The unit as the file declares it.
+        unit: String,
+        /// Whether the channel was selected as an input.
+        input: bool,
+        /// What the unit is instead (`a displacement unit`, `not a force unit`).
+        problem: String,
+    },
 }
 
 /// Which file operation failed.
@@ -328,16 +353,16 @@ pub enum Problem {
         /// This time (s), equal to or before `previous`.
         value: f64,
     },
-    /// A step between successive times that is not the mean interval (a
+    /// A step between successive times that is not the median step (a
     /// missing or repeated sample). See the printing tolerance in the crate's
     /// time-axis check.
     #[error(
-        "time step {step} differs from the mean interval {dt} by more than the tolerance {tolerance}: time is not uniformly sampled (missing or repeated sample?)"
+        "time step {step} differs from the median step {dt} by more than the tolerance {tolerance}: time is not uniformly sampled (missing or repeated sample?)"
     )]
     NonUniformStep {
         /// This step `t[i] - t[i-1]` (s).
         step: f64,
-        /// The mean interval from the end points (s).
+        /// The median step of the column (s).
         dt: f64,
         /// The largest deviation allowed for this step (s, at most `0.45 dt`).
         tolerance: f64,

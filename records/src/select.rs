@@ -4,14 +4,23 @@
 //! chosen by [`ChannelSpec`]s on the first file; every other file must have
 //! channels of the same names. Outputs default to every channel that is not
 //! an input, in file order, and are in DOF order.
+//!
+//! Values are taken in SI: a channel's declared unit (`force [kN]`,
+//! `acc1 [g]`, a UFF ordinate label) is converted, forces to N and
+//! accelerations to m/s^2, each file by its own units. A unit that is not a
+//! force (inputs) or an acceleration (outputs), such as a displacement or a
+//! voltage, is refused naming the file and the channel: read as N or m/s^2
+//! it would scale M, K and R by its factor without a sign of it. A channel
+//! without a unit is taken to be in N or m/s^2.
 
-use ident::{Campaign, Record};
+use ident::{Campaign, FrfQuantity, Record};
 use nalgebra::DMatrix;
 
 use crate::error::RecordError;
 use crate::format::check_campaign;
 use crate::record::RecordFile;
 use crate::spec::ChannelSpec;
+use crate::units;
 
 /// Selects `inputs` and `outputs` (default: every other channel) from the
 /// records of one campaign, after checking that they share length and
@@ -67,9 +76,18 @@ pub fn select(
         };
         let ins = pick(&input_idx, &input_names)?;
         let outs = pick(&output_idx, &output_names)?;
+        let scales = |idx: &[usize], input: bool| -> Result<Vec<f64>, RecordError> {
+            idx.iter().map(|&i| si_factor(r, i, input)).collect()
+        };
+        let (in_scale, out_scale) = (scales(&ins, true)?, scales(&outs, false)?);
         let n = r.len();
-        let inputs = DMatrix::from_fn(ins.len(), n, |i, s| r.channels[ins[i]].values[s]);
-        let outputs = DMatrix::from_fn(outs.len(), n, |i, s| r.channels[outs[i]].values[s]);
+        // A factor of 1 (SI, or no unit) leaves every value bit for bit.
+        let inputs = DMatrix::from_fn(ins.len(), n, |i, s| {
+            r.channels[ins[i]].values[s] * in_scale[i]
+        });
+        let outputs = DMatrix::from_fn(outs.len(), n, |i, s| {
+            r.channels[outs[i]].values[s] * out_scale[i]
+        });
         records.push(Record::new(inputs, outputs));
     }
     Ok(Campaign::named(
@@ -79,4 +97,29 @@ pub fn select(
         output_names,
         files.iter().map(|f| f.path.display().to_string()).collect(),
     ))
+}
+
+/// The factor that brings channel `index` of `file` to SI from its declared
+/// unit: newtons for an input, m/s^2 for an output; 1 without a unit.
+fn si_factor(file: &RecordFile, index: usize, input: bool) -> Result<f64, RecordError> {
+    let channel = &file.channels[index];
+    let Some(unit) = channel.unit.as_deref() else {
+        return Ok(1.0);
+    };
+    let refuse = |problem: &str| RecordError::ChannelUnit {
+        path: file.path.clone(),
+        channel: channel.describe(index),
+        unit: unit.to_string(),
+        input,
+        problem: problem.to_string(),
+    };
+    if input {
+        return units::newtons_per(unit).ok_or_else(|| refuse("not a force unit"));
+    }
+    match units::motion_unit(unit) {
+        Some((FrfQuantity::Accelerance, factor)) => Ok(factor),
+        Some((FrfQuantity::Receptance, _)) => Err(refuse("a displacement unit")),
+        Some((FrfQuantity::Mobility, _)) => Err(refuse("a velocity unit")),
+        None => Err(refuse("not an acceleration unit")),
+    }
 }

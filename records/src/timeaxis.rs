@@ -20,9 +20,12 @@
 //!   second drifts by up to about `n^2 eps dt / 2`, below `1e-4 dt` for
 //!   records shorter than about a million samples.
 //!
-//! Each step `t[i] - t[i-1]` must equal the mean interval `dt` (from the
-//! end points) within the printing error of both values, the error the end
-//! points put into `dt`, a few ulps, and a floor of `1e-4 dt`. Each value
+//! Each step `t[i] - t[i-1]` must equal the median step within the printing
+//! error of both steps' values, a few ulps, and a floor of `1e-4 dt` (`dt`
+//! the mean interval from the end points). The median, not `dt`, so that a
+//! missing or doubled sample is named where it is: it moves `dt` by
+//! `dt / (n - 1)`, more than the printing error of a column printed to the
+//! last bit, and every step would differ from it. Each value
 //! must lie on the grid `t0 + i dt` within its own, the first and the last
 //! value's printing error, a few ulps and the same floor (this catches slow
 //! drift that no single step shows).
@@ -216,20 +219,32 @@ pub(crate) fn check_uniform(t: &[f64], model: &PrintModel, scale: f64) -> Result
     let eps = f64::EPSILON;
     let clamp = |tol: f64| tol.max(FLOOR * dt).min(CAP * dt);
 
-    // Steps: catches a gap or a doubled sample at the line where it is.
-    let dt_error = (q0 + qn) / (n - 1) as f64;
+    // Steps: catches a gap or a doubled sample at the line where it is. The
+    // reference is the median step (a gap or a doubled sample does not move
+    // it), known to within its own values' printing error and ulps.
+    let reference = {
+        let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+        *steps.select_nth_unstable_by((n - 1) / 2, f64::total_cmp).1
+    };
+    // The step's place, for its values' printing error.
+    let reference_at = (1..n)
+        .find(|&i| t[i] - t[i - 1] == reference)
+        .expect("the median is one of the steps");
+    let reference_error = model.half_unit(t[reference_at], scale)
+        + model.half_unit(t[reference_at - 1], scale)
+        + 4.0 * eps * (t[reference_at].abs() + t[reference_at - 1].abs());
     let mut q_previous = q0;
     for i in 1..n {
         let step = t[i] - t[i - 1];
         let qi = q(i);
         let tol =
-            clamp(qi + q_previous + 2.0 * dt_error + 4.0 * eps * (t[i].abs() + t[i - 1].abs()));
+            clamp(qi + q_previous + reference_error + 4.0 * eps * (t[i].abs() + t[i - 1].abs()));
         q_previous = qi;
-        if (step - dt).abs() > tol {
+        if (step - reference).abs() > tol {
             return Err(AxisError::Step {
                 index: i,
                 step,
-                dt,
+                dt: reference,
                 tolerance: tol,
             });
         }
@@ -395,6 +410,51 @@ mod tests {
             Err(AxisError::Step { index, .. }) => assert_eq!(index, 70),
             other => panic!("{other:?}"),
         }
+    }
+
+    /// A missing or doubled sample in a column printed to the last bit
+    /// (frameid's own form, the shortest text that reads back) is named at
+    /// the step where it is. The steps were compared with the end-point
+    /// interval, which the gap itself moves by dt / (n - 1): more than the
+    /// tolerance of exactly printed values, so the first step was refused
+    /// (line 3 of a 2048-row file with a gap at line 502).
+    #[test]
+    fn gap_in_an_exactly_printed_column_is_found_where_it_is() {
+        let dt = 1.0 / 64.0;
+        let column = |skip: usize, double: usize| {
+            let mut t: Vec<f64> = (0..2048)
+                .filter(|&i| i != skip)
+                .map(|i| i as f64 * dt)
+                .collect();
+            if double < t.len() {
+                t.insert(double, t[double]);
+                t[double + 1] += 0.5 * dt;
+            }
+            let texts: Vec<String> = t.iter().map(|&v| crate::numfmt::shortest(v)).collect();
+            let refs: Vec<&str> = texts.iter().map(|s| s.as_str()).collect();
+            model_of(&refs)
+        };
+        let (t, m) = column(500, usize::MAX);
+        match check_uniform(&t, &m, 1.0) {
+            Err(AxisError::Step {
+                index,
+                step,
+                dt: reference,
+                ..
+            }) => {
+                assert_eq!((index, step, reference), (500, 2.0 * dt, dt));
+            }
+            other => panic!("{other:?}"),
+        }
+        // A sample half way between two others: the first short step.
+        let (t, m) = column(usize::MAX, 1500);
+        match check_uniform(&t, &m, 1.0) {
+            Err(AxisError::Step { index, step, .. }) => assert_eq!((index, step), (1501, 0.5 * dt)),
+            other => panic!("{other:?}"),
+        }
+        // Intact, the interval is exact.
+        let (t, m) = column(usize::MAX, usize::MAX);
+        assert_eq!(check_uniform(&t, &m, 1.0), Ok(dt));
     }
 
     #[test]

@@ -270,3 +270,98 @@ fn names_with_parentheses_match_whole() {
     assert_eq!(get("acc [m/s^2]").unwrap(), "Acc");
     assert_eq!(get("Acc").unwrap(), "Acc");
 }
+
+/// Declared units are converted to N and m/s^2, each file by its own; units
+/// that are no force or acceleration are refused naming file and channel.
+/// (Read as SI, `acc1 [g]` scaled M by 9.8 and `force [kN]` by 1/1000 with
+/// nothing said.)
+#[test]
+fn selection_converts_declared_units_to_si_and_refuses_others() {
+    let parse = |name: &str, header: &str| {
+        let text = format!("time,{header}\n0,2,3,4\n0.5,-1,0.25,8\n");
+        records::parse_csv(text.as_bytes(), Path::new(name), &ReadOptions::default()).unwrap()
+    };
+    let force = [ChannelSpec::Name("force".into())];
+    let si = parse("si.csv", "force [N],acc1 [m/s^2],acc2");
+    let mixed = parse("mixed.csv", "force [kN],acc1 [g],acc2 [mm/s^2]");
+    let c = records::select(&[si, mixed], &force, None).unwrap();
+    // SI and unit-less channels bit for bit.
+    assert_eq!(
+        c.records[0]
+            .inputs
+            .row(0)
+            .iter()
+            .copied()
+            .collect::<Vec<_>>(),
+        [2.0, -1.0]
+    );
+    assert_eq!(
+        c.records[0]
+            .outputs
+            .row(0)
+            .iter()
+            .copied()
+            .collect::<Vec<_>>(),
+        [3.0, 0.25]
+    );
+    assert_eq!(
+        c.records[0]
+            .outputs
+            .row(1)
+            .iter()
+            .copied()
+            .collect::<Vec<_>>(),
+        [4.0, 8.0]
+    );
+    // Each value times its unit's SI value (one rounding).
+    assert_eq!(
+        c.records[1]
+            .inputs
+            .row(0)
+            .iter()
+            .copied()
+            .collect::<Vec<_>>(),
+        [2e3, -1e3]
+    );
+    assert_eq!(
+        c.records[1]
+            .outputs
+            .row(0)
+            .iter()
+            .copied()
+            .collect::<Vec<_>>(),
+        [3.0 * 9.806_65, 0.25 * 9.806_65]
+    );
+    assert_eq!(
+        c.records[1]
+            .outputs
+            .row(1)
+            .iter()
+            .copied()
+            .collect::<Vec<_>>(),
+        [4.0 * 1e-3, 8.0 * 1e-3]
+    );
+    for (header, needle) in [
+        (
+            "force [V],acc1,acc2",
+            "bad.csv: channel #1 force [V] is in 'V', not a force unit; inputs must be forces",
+        ),
+        (
+            "force,acc1 [mm],acc2",
+            "bad.csv: channel #2 acc1 [mm] is in 'mm', a displacement unit; outputs must be accelerations",
+        ),
+        (
+            "force,acc1,acc2 [m/s]",
+            "bad.csv: channel #3 acc2 [m/s] is in 'm/s', a velocity unit",
+        ),
+        (
+            "force,acc1,acc2 [mV]",
+            "bad.csv: channel #3 acc2 [mV] is in 'mV', not an acceleration unit",
+        ),
+    ] {
+        let good = parse("good.csv", "force,acc1,acc2");
+        let e = records::select(&[good, parse("bad.csv", header)], &force, None).unwrap_err();
+        assert!(matches!(e, RecordError::ChannelUnit { .. }), "{e}");
+        assert!(e.to_string().starts_with(needle), "{e}");
+    }
+}
