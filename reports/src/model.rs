@@ -301,7 +301,7 @@ pub struct Accuracy {
     /// be empty.
     pub efficiency: Vec<EfficiencyRow>,
     /// Added field. The time and FRF identification routes side by side, on
-    /// the same simulated campaigns (first panel, every noise level); empty
+    /// the same simulated campaigns (every panel, every noise level); empty
     /// when the study ran one route.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub routes: Vec<RouteRow>,

@@ -175,6 +175,16 @@ pub struct Bound {
 }
 
 impl Bound {
+    /// Whether every value is a finite number > 0 (a relative standard
+    /// deviation): not so when a true value it is relative to is zero.
+    pub fn is_usable(&self) -> bool {
+        self.frequencies
+            .iter()
+            .chain(&self.damping_ratios)
+            .chain([&self.mass, &self.stiffness, &self.damping])
+            .all(|&x| x.is_finite() && x > 0.0)
+    }
+
     /// The bound that applies to a score, if any: every estimator of a
     /// quantity (ERA/MKR, Rayleigh, refined, either route) shares the
     /// quantity's bound.

@@ -11,8 +11,8 @@ use crate::fsutil::read_json;
 use crate::representative::RepresentativeFile;
 use crate::scenario::{Scenario, StructureSpec};
 use crate::score::{FrfScore, MatrixEstimate, ScoreKey};
-use crate::sweep::Summary;
 use crate::sweep::stats::Stats;
+use crate::sweep::{LevelSummary, Summary};
 
 /// Reads `summary.json` and (if present) `representative.json` of a sweep
 /// directory and builds one study of the report.
@@ -484,14 +484,23 @@ fn rms(s: &Stats) -> f64 {
     }
 }
 
+/// What a row of the efficiency and route tables measures: with a second
+/// axis the tables hold every panel, so the quantity names its axis value
+/// ("mass matrix (excitation = shaker)").
+fn quantity_at(summary: &Summary, level: &LevelSummary, quantity: &str) -> String {
+    match (&summary.plan.axis, &level.axis_value) {
+        (Some(axis), Some(value)) => format!("{quantity} ({} = {value})", axis.setting.name()),
+        _ => quantity.to_string(),
+    }
+}
+
 /// The time and FRF routes side by side (sweeps that ran both): M, K and
-/// the MKR and Rayleigh damping at every noise level of the first panel.
+/// the MKR and Rayleigh damping at every noise level of every panel.
 fn route_rows(summary: &Summary) -> Vec<rm::RouteRow> {
     let routes = summary.plan.scenario.identification.route;
     if !(routes.time() && routes.frf()) {
         return Vec::new();
     }
-    let first_axis = summary.levels.first().map(|l| l.axis_value.clone());
     let matrices = [
         (MatrixEstimate::Mass, "mass matrix"),
         (MatrixEstimate::Stiffness, "stiffness matrix"),
@@ -501,7 +510,6 @@ fn route_rows(summary: &Summary) -> Vec<rm::RouteRow> {
     summary
         .levels
         .iter()
-        .filter(|l| Some(l.axis_value.clone()) == first_axis)
         .flat_map(|l| {
             matrices.iter().map(move |&(m, quantity)| {
                 let errors = |key: ScoreKey| {
@@ -515,7 +523,7 @@ fn route_rows(summary: &Summary) -> Vec<rm::RouteRow> {
                 };
                 rm::RouteRow {
                     noise_level: l.noise,
-                    quantity: quantity.into(),
+                    quantity: quantity_at(summary, l, quantity),
                     time: errors(ScoreKey::Matrix(m)),
                     frf: errors(ScoreKey::Frf(FrfScore::Matrix(m))),
                 }
@@ -560,14 +568,12 @@ fn estimator_of(key: ScoreKey) -> Option<(&'static str, String)> {
     }
 }
 
-/// Efficiency rows (bound / RMS error) of the first panel, every level with
-/// a bound.
+/// Efficiency rows (bound / RMS error) of every panel, every level with a
+/// bound.
 fn efficiency_rows(summary: &Summary) -> Vec<rm::EfficiencyRow> {
-    let first_axis = summary.levels.first().map(|l| l.axis_value.clone());
     summary
         .levels
         .iter()
-        .filter(|l| Some(l.axis_value.clone()) == first_axis)
         .flat_map(|l| {
             summary.score_names.iter().filter_map(move |&name| {
                 let eff = *l.efficiency.get(&name)?;
@@ -575,7 +581,7 @@ fn efficiency_rows(summary: &Summary) -> Vec<rm::EfficiencyRow> {
                 Some(rm::EfficiencyRow {
                     noise_level: l.noise,
                     estimator: estimator.into(),
-                    quantity,
+                    quantity: quantity_at(summary, l, &quantity),
                     efficiency: eff,
                 })
             })

@@ -676,6 +676,10 @@ pub fn bounds(plan: &Plan, truth: &TrueModel) -> Vec<Vec<Option<Bound>>> {
                         seed,
                     )
                     .ok()
+                    // JSON has no NaN: a bound that is not a positive number
+                    // everywhere would be written as null and the summary
+                    // could not be read back.
+                    .filter(Bound::is_usable)
                 })
                 .collect()
         })
@@ -724,7 +728,10 @@ pub fn summarize(plan: &Plan, truth: &TrueModel, keys: &[ScoreKey], rows: &[Tria
                     .iter()
                     .filter_map(|&k| {
                         let (bound, rms) = (b.for_score(k)?, rms(column(k)?)?);
-                        (rms > 0.0).then_some((k, bound / rms))
+                        // Infinite when the errors are all zero: left out
+                        // (JSON would write null).
+                        let efficiency = bound / rms;
+                        efficiency.is_finite().then_some((k, efficiency))
                     })
                     .collect(),
                 None => BTreeMap::new(),
@@ -738,7 +745,8 @@ pub fn summarize(plan: &Plan, truth: &TrueModel, keys: &[ScoreKey], rows: &[Tria
                     let err = rms(column(ScoreKey::Matrix(m))?)?;
                     let mean_se = Stats::of(se).mean?;
                     let name = m.name().trim_end_matches("_refined").to_string();
-                    (err > 0.0).then_some((name, mean_se / err))
+                    let ratio = mean_se / err;
+                    ratio.is_finite().then_some((name, ratio))
                 })
                 .collect();
             levels.push(LevelSummary {
@@ -962,6 +970,31 @@ impl Plan {
             axis: scenario.sweep.axis.clone(),
             scenario,
         };
+        // The damping scores (xi_err, damping_*_err) and their bound are
+        // relative to the truth's: an undamped mode has none to score
+        // against (its ratio is round-off: 4e-15 on paper case 1 without
+        // damping, and the bound's own modal analysis gave it negative).
+        // 1e-9 is six orders above that round-off and far below any
+        // structure's damping.
+        let truth = plan_truth(&plan)?;
+        if let Some((j, xi)) = truth
+            .modal
+            .damping_ratios
+            .iter()
+            .enumerate()
+            .find(|&(_, &xi)| xi.is_nan() || xi <= 1e-9)
+        {
+            return Err(StudyError::Scenario(
+                crate::scenario::ScenarioError::Invalid {
+                    path: loaded.path.clone(),
+                    field: "damping".into(),
+                    problem: format!(
+                        "mode {} of the structure is undamped (damping ratio {xi:.1e}): a sweep scores damping ratios and the damping matrix relative to the truth's; give the structure damping ([damping] or [[dashpots]])",
+                        j + 1
+                    ),
+                },
+            ));
+        }
         if plan.trial_count().is_none() {
             return Err(StudyError::InvalidSetting {
                 setting: "trials".into(),
