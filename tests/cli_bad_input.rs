@@ -456,3 +456,75 @@ fn declared_units_are_converted_or_refused() {
         );
     }
 }
+
+/// Copies a CSV record cut to start `k` samples before its force peak
+/// (column 1): a trigger that fired late.
+fn cut_before_peak(src: &str, dir: &Path, name: &str, k: usize) -> String {
+    let text = std::fs::read_to_string(src).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let force = |l: &str| -> f64 { l.split(',').nth(1).unwrap().parse::<f64>().unwrap().abs() };
+    let peak = (1..lines.len())
+        .max_by(|&a, &b| force(lines[a]).total_cmp(&force(lines[b])))
+        .unwrap();
+    let mut out = vec![lines[0]];
+    out.extend_from_slice(&lines[peak - k..]);
+    let path = dir.join(name);
+    std::fs::write(&path, out.join("\n") + "\n").unwrap();
+    path.to_string_lossy().into_owned()
+}
+
+/// Analyzer records that start just before their force peak have lost
+/// part of the band-limited pulse (the filter's precursor): with every
+/// hit of paper case 1 starting 1 sample before its peak, M came out 54 %
+/// off (3000x at the peak itself) with exit 0 and only a note that the
+/// pre-trigger was too short. They are refused naming the files, also
+/// under --drop-bad-hits (every hit would go). Held records have no
+/// precursor: with --intersample zoh the same cut is identified.
+#[test]
+fn records_starting_in_the_hit_are_refused_unless_held() {
+    let dir = tempfile::tempdir().unwrap();
+    let files = campaign(&dir.path().join("c"), "paper-case1.toml", 4);
+    let late: Vec<String> = files
+        .iter()
+        .enumerate()
+        .map(|(i, f)| cut_before_peak(f, dir.path(), &format!("late{i}.csv"), 1))
+        .collect();
+    let mut args: Vec<&str> = late.iter().map(String::as_str).collect();
+    refused(
+        &args,
+        &[
+            "late0.csv",
+            "late3.csv",
+            "record starts in the hit",
+            "peaks at sample 1,",
+            "record a longer pre-trigger",
+        ],
+    );
+    args.push("--drop-bad-hits");
+    refused(&args, &["late2.csv", "record starts in the hit"]);
+
+    let held_dir = dir.path().join("held");
+    ok(&[
+        "simulate",
+        s(&repo("scenarios").join("paper-case1.toml")),
+        "--out",
+        s(&held_dir),
+        "--hits",
+        "4",
+        "--acquisition",
+        "held",
+    ]);
+    let held: Vec<String> = hit_files(&held_dir, "csv")
+        .iter()
+        .enumerate()
+        .map(|(i, f)| cut_before_peak(f, dir.path(), &format!("held{i}.csv"), 0))
+        .collect();
+    let v = identify_no_uncertainty(&held, &["--intersample", "zoh"]);
+    let truth = read_json(&held_dir.join("truth.json"));
+    // Four held hits at 1 % noise (seeded): M within 1e-3, the noise's
+    // reach (measured 6.1e-4 here; ten held hits of seed 101: 7.7e-4 uncut,
+    // 1.7e-4 cut at the hit), while a record missing part of its force
+    // gives errors of 1e-1 and more.
+    let err = rel_fro(&matrix(&v["mass"]), &matrix(&truth["mass"]));
+    assert!(err < 1e-3, "held records cut at the hit: M error {err}");
+}

@@ -349,7 +349,15 @@ pub fn screen_records(
         .consistency
         .check()
         .map_err(|message| AnalysisError::Settings { message })?;
-    let hit_quality = assess_campaign(campaign, &settings.quality);
+    // Held records have no filter precursor: they may start at the hit.
+    let quality = match settings.identifier.intersample {
+        ident::Intersample::Zoh => QualitySettings {
+            min_samples_before_hit: 0,
+            ..settings.quality.clone()
+        },
+        ident::Intersample::Bandlimited => settings.quality.clone(),
+    };
+    let hit_quality = assess_campaign(campaign, &quality);
     let consistency = check_consistency(campaign, locate, &settings.consistency);
     let inconsistent = consistency.flagged_records();
     let flag_lines = |flags: &[ConsistencyFlag]| -> Vec<String> {
