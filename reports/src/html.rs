@@ -830,7 +830,7 @@ fn efficiency(out: &mut String, acc: &Accuracy) {
         }
     }
     levels.sort_by(f64::total_cmp);
-    out.push_str("<div class=\"efficiency\">\n<h4>Efficiency</h4>\n<p class=\"lede\">Cramér–Rao bound (standard deviation) divided by the estimator's RMS error over the trials; 1 means the estimator reaches the bound, a small value that it is far from it (or biased).</p>\n");
+    out.push_str("<div class=\"efficiency\">\n<h4>Efficiency</h4>\n<p class=\"lede\">Cramér–Rao bound (standard deviation) divided by the estimator's RMS error over the trials; 1 means the estimator reaches the bound, a small value that it is far from it (or biased). ± is the Monte Carlo standard error from the trials.</p>\n");
     out.push_str("<div class=\"table-wrap\"><table class=\"efficiency\">\n<thead><tr><th scope=\"col\">Quantity</th><th scope=\"col\">Estimator</th>");
     for &l in &levels {
         w!(
@@ -852,10 +852,10 @@ fn efficiency(out: &mut String, acc: &Accuracy) {
                 .efficiency
                 .iter()
                 .find(|e| e.quantity == q && e.estimator == est && same_level(e.noise_level, l))
-                .map(|e| e.efficiency);
+                .map(|e| (e.efficiency, e.se));
             match v {
-                Some(v) => {
-                    w!(out, "<td class=\"num\">{}</td>", sig(v, 3));
+                Some((v, se)) => {
+                    w!(out, "<td class=\"num\">{}</td>", with_error(v, se));
                 }
                 None => {
                     w!(out, "<td class=\"num\">{MISSING}</td>");
@@ -867,6 +867,15 @@ fn efficiency(out: &mut String, acc: &Accuracy) {
     out.push_str("</tbody>\n</table></div>\n</div>\n");
 }
 
+/// `v` to three significant digits, with `± se` (two significant digits)
+/// when the standard error is a finite number.
+fn with_error(v: f64, se: Option<f64>) -> String {
+    match se.filter(|se| se.is_finite()) {
+        Some(se) => format!("{} ± {}", sig(v, 3), sig(se, 2)),
+        None => sig(v, 3),
+    }
+}
+
 /// The time and FRF routes side by side: one row per noise level and
 /// matrix, median and RMS relative error and efficiency of each route, and
 /// the ratio of their mean square errors.
@@ -874,7 +883,7 @@ fn routes(out: &mut String, acc: &Accuracy) {
     if acc.routes.is_empty() {
         return;
     }
-    out.push_str("<div class=\"routes\">\n<h4>Time and FRF routes</h4>\n<p class=\"lede\">Both routes identify the same simulated campaigns: the time route from the records (OKID, ERA/DC, MKR), the FRF route from FRFs averaged across the hits (pLSCF, LSFD, MKR). Relative Frobenius errors over the trials in which each route identified; efficiency is the Cramér–Rao bound over the RMS error; the last column is the FRF route's mean square error over the time route's (above 1: the FRF route is worse). The Rayleigh damping has two parameters, fewer than the bound's parametrization, so its efficiency can exceed 1.</p>\n");
+    out.push_str("<div class=\"routes\">\n<h4>Time and FRF routes</h4>\n<p class=\"lede\">Both routes identify the same simulated campaigns: the time route from the records (OKID, ERA/DC, MKR), the FRF route from FRFs averaged across the hits (pLSCF, LSFD, MKR). Relative Frobenius errors over the trials in which each route identified (± the Monte Carlo standard error); efficiency is the Cramér–Rao bound over the RMS error; the last column is the FRF route's mean square error over the time route's (above 1: the FRF route is worse). The Rayleigh damping has two parameters, fewer than the bound's parametrization, so its efficiency can exceed 1.</p>\n");
     out.push_str("<div class=\"table-wrap\"><table class=\"routes\">\n<thead><tr><th scope=\"col\">Noise</th><th scope=\"col\">Quantity</th>");
     for route in ["time", "FRF"] {
         for col in ["trials", "median", "RMS", "efficiency"] {
@@ -882,13 +891,14 @@ fn routes(out: &mut String, acc: &Accuracy) {
         }
     }
     out.push_str("<th scope=\"col\" class=\"num\">MSE FRF / time</th></tr></thead>\n<tbody>\n");
-    let cell = |out: &mut String, v: f64| {
+    let cell_se = |out: &mut String, v: f64, se: Option<f64>| {
         if v.is_finite() {
-            w!(out, "<td class=\"num\">{}</td>", sig(v, 3));
+            w!(out, "<td class=\"num\">{}</td>", with_error(v, se));
         } else {
             w!(out, "<td class=\"num\">{MISSING}</td>");
         }
     };
+    let cell = |out: &mut String, v: f64| cell_se(out, v, None);
     for r in &acc.routes {
         w!(
             out,
@@ -899,9 +909,9 @@ fn routes(out: &mut String, acc: &Accuracy) {
         );
         for e in [&r.time, &r.frf] {
             w!(out, "<td class=\"num\">{}</td>", e.trials);
-            cell(out, e.median);
+            cell_se(out, e.median, e.median_se);
             cell(out, e.rms);
-            cell(out, e.efficiency);
+            cell_se(out, e.efficiency, e.efficiency_se);
         }
         cell(out, (r.frf.rms / r.time.rms).powi(2));
         out.push_str("</tr>\n");

@@ -337,6 +337,14 @@ pub struct RouteErrors {
     /// Cramér–Rao bound over `rms` (1 = efficient); NaN without a bound.
     #[serde(deserialize_with = "nullable::f64")]
     pub efficiency: f64,
+    /// Added field. Monte Carlo standard error of `median`, shown as
+    /// `± se` when present.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub median_se: Option<f64>,
+    /// Added field. Monte Carlo standard error of `efficiency`, shown as
+    /// `± se` when present.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub efficiency_se: Option<f64>,
 }
 
 /// The sweep over noise levels at one value of the second axis (the only
@@ -432,6 +440,11 @@ pub struct EfficiencyRow {
     /// Bound over RMS error.
     #[serde(deserialize_with = "nullable::f64")]
     pub efficiency: f64,
+    /// Added field. Monte Carlo standard error of `efficiency` (from the
+    /// spread of the squared errors over the trials), shown as `± se` when
+    /// present.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub se: Option<f64>,
 }
 
 /// Deserializers that read `null` as `NaN`.

@@ -109,6 +109,7 @@ fn empty_vectors_everywhere() {
         estimator: String::new(),
         quantity: String::new(),
         efficiency: f64::NAN,
+        se: Some(f64::NAN),
     }];
     let html = reports::render(&report_of(vec![s])).unwrap();
     let doc = parse(&html);
@@ -485,6 +486,7 @@ fn random_report(seed: u64) -> Report {
                             estimator: string(&mut rng),
                             quantity: string(&mut rng),
                             efficiency: value(&mut rng),
+                            se: (rng.uniform() < 0.5).then(|| value(&mut rng)),
                         })
                         .collect(),
                     routes: (0..rng.below(3))
@@ -494,6 +496,8 @@ fn random_report(seed: u64) -> Report {
                                 median: value(&mut rng),
                                 rms: value(&mut rng),
                                 efficiency: value(&mut rng),
+                                median_se: (rng.uniform() < 0.5).then(|| value(&mut rng)),
+                                efficiency_se: (rng.uniform() < 0.5).then(|| value(&mut rng)),
                             };
                             let (time, frf) = (errors(), errors());
                             RouteRow {

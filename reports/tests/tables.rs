@@ -129,6 +129,8 @@ fn route_table_shows_both_routes_per_level() {
         median,
         rms,
         efficiency,
+        median_se: None,
+        efficiency_se: None,
     };
     report.studies[0].accuracy.routes = vec![
         reports::RouteRow {
@@ -308,4 +310,45 @@ fn comparison_tables_take_the_width_their_columns_need() {
     // Numbers stay on one line, so the content width is that of the
     // widest number of each column.
     assert_eq!(top("td.num", "white-space").as_deref(), Some("nowrap"));
+}
+
+#[test]
+fn monte_carlo_errors_are_shown_beside_medians_and_efficiencies() {
+    let mut report = common::report();
+    let errors = |median_se, efficiency_se| reports::RouteErrors {
+        trials: 20,
+        median: 1e-3,
+        rms: 2e-3,
+        efficiency: 0.5,
+        median_se,
+        efficiency_se,
+    };
+    report.studies[0].accuracy.routes = vec![reports::RouteRow {
+        noise_level: 0.01,
+        quantity: "mass matrix".into(),
+        time: errors(Some(1.234e-4), Some(0.0456)),
+        frf: errors(None, Some(f64::NAN)),
+    }];
+    for e in &mut report.studies[0].accuracy.efficiency {
+        e.se = Some(0.0123);
+    }
+    let doc = parse(&reports::render(&report).unwrap());
+    let cells: Vec<String> = doc
+        .select(&sel("article#study-1 table.routes tbody td"))
+        .map(text)
+        .collect();
+    // Two significant digits of the error; none where it is missing or not
+    // a number.
+    assert_eq!(cells[1], "0.00100 ± 1.2e-4", "{cells:?}");
+    assert_eq!(cells[3], "0.500 ± 0.046", "{cells:?}");
+    assert_eq!(cells[5], "0.00100", "{cells:?}");
+    assert_eq!(cells[7], "0.500", "{cells:?}");
+    let eff: Vec<String> = doc
+        .select(&sel("article#study-1 table.efficiency tbody td.num"))
+        .map(text)
+        .collect();
+    assert!(!eff.is_empty());
+    for c in &eff {
+        assert!(c.ends_with(" ± 0.012"), "{c}");
+    }
 }

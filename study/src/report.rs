@@ -519,6 +519,8 @@ fn route_rows(summary: &Summary) -> Vec<rm::RouteRow> {
                         median: stats.and_then(|s| s.median).unwrap_or(f64::NAN),
                         rms: stats.map_or(f64::NAN, rms),
                         efficiency: l.efficiency.get(&key).copied().unwrap_or(f64::NAN),
+                        median_se: stats.and_then(|s| s.median_se),
+                        efficiency_se: l.efficiency_se.get(&key).copied(),
                     }
                 };
                 rm::RouteRow {
@@ -583,6 +585,7 @@ fn efficiency_rows(summary: &Summary) -> Vec<rm::EfficiencyRow> {
                     estimator: estimator.into(),
                     quantity: quantity_at(summary, l, &quantity),
                     efficiency: eff,
+                    se: l.efficiency_se.get(&name).copied(),
                 })
             })
         })

@@ -260,6 +260,7 @@ fn efficiency(levels: &[f64]) -> Vec<EfficiencyRow> {
                 estimator: "ERA/DC".into(),
                 quantity: quantity.into(),
                 efficiency: base - 0.05 * i as f64,
+                se: None,
             });
         }
     }

@@ -626,6 +626,14 @@ pub struct LevelSummary {
     /// Per score with a bound: bound / RMS error over the successful trials
     /// (1 = efficient).
     pub efficiency: BTreeMap<ScoreKey, f64>,
+    /// Monte Carlo standard error of each `efficiency`: the efficiency times
+    /// the relative standard error of the RMS error
+    /// ([`stats::rms_with_error`]; the bound itself is exact). Two sweeps'
+    /// efficiencies agree within their Monte Carlo error when they differ by
+    /// less than about twice the root sum of squares of these. Missing below
+    /// two trials; summaries written before it was added read as empty.
+    #[serde(default)]
+    pub efficiency_se: BTreeMap<ScoreKey, f64>,
     /// Refined M, K, damping: mean standard error reported by a single
     /// refinement over the RMS error across trials (1 = honest error bars).
     pub standard_error_ratio: BTreeMap<String, f64>,
@@ -736,6 +744,14 @@ pub fn summarize(plan: &Plan, truth: &TrueModel, keys: &[ScoreKey], rows: &[Tria
                     .collect(),
                 None => BTreeMap::new(),
             };
+            let efficiency_se = efficiency
+                .iter()
+                .filter_map(|(&k, &eff)| {
+                    let (rms, se) = stats::rms_with_error(column(k)?)?;
+                    let se = eff * se / rms;
+                    se.is_finite().then_some((k, se))
+                })
+                .collect();
             // Meaningless without noise (errors at round-off level).
             let standard_error_ratio = MatrixEstimate::REFINED
                 .iter()
@@ -768,6 +784,7 @@ pub fn summarize(plan: &Plan, truth: &TrueModel, keys: &[ScoreKey], rows: &[Tria
                     .collect(),
                 bound,
                 efficiency,
+                efficiency_se,
                 standard_error_ratio,
             });
         }
