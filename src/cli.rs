@@ -58,6 +58,8 @@ pub enum Command {
     Merge(MergeArgs),
     /// Render the HTML accuracy report of one or more sweep directories.
     Report(ReportArgs),
+    /// Compare two sweeps' medians and efficiencies within their Monte Carlo errors (exit 1 if any differs).
+    Compare(CompareArgs),
 }
 
 /// Record file format written by `simulate`.
@@ -361,6 +363,20 @@ pub struct SweepArgs {
     /// Identification route (overrides the scenario's `identification.route`): `time` records, `frf` (H1 FRFs across the hits, pLSCF, LSFD, MKR) or `both` on the same campaigns
     #[arg(long, value_parser = route_parser())]
     pub route: Option<study::scenario::RouteSetting>,
+}
+
+#[derive(Debug, Args)]
+pub struct CompareArgs {
+    /// The first sweep directory (complete or merged)
+    pub first: PathBuf,
+    /// The second sweep directory
+    pub second: PathBuf,
+    /// Differences above this many combined Monte Carlo standard errors count as changes
+    #[arg(long, default_value_t = study::sweep::compare::DEFAULT_THRESHOLD)]
+    pub threshold: f64,
+    /// Write the comparison as JSON instead of text
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(Debug, Args)]

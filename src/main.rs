@@ -34,10 +34,15 @@ fn main() -> ExitCode {
         Command::Sweep(args) => to_stdout(|out| commands::sweep::run(&args, out)),
         Command::Merge(args) => to_stdout(|out| commands::sweep::merge(&args, out)),
         Command::Report(args) => to_stdout(|out| commands::report::run(&args, out)),
+        Command::Compare(args) => to_stdout(|out| commands::sweep::compare(&args, out)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if broken_pipe(&e) => ExitCode::from(141),
+        Err(e) if e.downcast_ref::<commands::sweep::Differs>().is_some() => {
+            let _ = writeln!(std::io::stderr(), "{e}");
+            ExitCode::from(1)
+        }
         Err(e) => {
             let _ = writeln!(std::io::stderr(), "error: {e:#}");
             ExitCode::from(2)

@@ -308,3 +308,83 @@ fn hammer_and_shaker_campaigns_are_swept_side_by_side() {
     let html = std::fs::read_to_string(&page).unwrap();
     assert!(html.contains("hammer") && html.contains("shaker"));
 }
+
+#[test]
+fn compare_flags_medians_and_efficiencies_beyond_their_monte_carlo_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a");
+    // 8 trials: the fewest with a median's Monte Carlo error.
+    let scenario = repo("scenarios/paper-case1.toml");
+    ok(&[
+        "sweep",
+        s(&scenario),
+        "--out",
+        s(&a),
+        "--trials",
+        "8",
+        "--noise",
+        "0.01",
+    ]);
+    let out = ok(&["compare", s(&a), s(&a)]);
+    assert!(
+        out.contains("agree: every difference within 4 standard errors"),
+        "{out}"
+    );
+
+    // A copy whose mass error median moved by 5 of its standard errors (the
+    // combined error of the two is sqrt(2) of one: 3.5 of those).
+    let b = dir.path().join("b");
+    std::fs::create_dir(&b).unwrap();
+    for f in ["trials.csv", "sweep.json", "representative.json"] {
+        std::fs::copy(a.join(f), b.join(f)).unwrap();
+    }
+    let mut summary = read_json(&a.join("summary.json"));
+    let stats = &mut summary["levels"][0]["scores"]["mass_err"];
+    let (median, se) = (
+        stats["median"].as_f64().unwrap(),
+        stats["median_se"].as_f64().unwrap(),
+    );
+    assert!(se > 0.0 && se < median, "{stats}");
+    stats["median"] = (median + 5.0 * se).into();
+    let write = |v: &Value| {
+        std::fs::write(b.join("summary.json"), serde_json::to_string(v).unwrap()).unwrap()
+    };
+    write(&summary);
+    let within = ok(&["compare", s(&a), s(&b)]);
+    assert!(
+        within.contains("largest difference: median of mass_err"),
+        "{within}"
+    );
+    let (code, out, err) = run(&["compare", s(&a), s(&b), "--threshold", "3"]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(
+        out.contains("changed: median of mass_err at noise 0.01"),
+        "{out}"
+    );
+    assert!(out.contains("3.54 standard errors"), "{out}");
+    assert!(
+        err.contains("1 median(s) or efficienc(ies) differ by more than 3"),
+        "{err}"
+    );
+    let (code, out, _) = run(&["compare", s(&a), s(&b), "--threshold", "3", "--json"]);
+    assert_eq!(code, 1);
+    let json: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(json["changed"][0]["score"], "mass_err");
+
+    // Another scenario, a bad threshold: refused, naming the directories.
+    summary["plan"]["scenario"]["name"] = "other".into();
+    write(&summary);
+    let (code, out, err) = run(&["compare", s(&a), s(&b)]);
+    assert_eq!((code, out.as_str()), (2, ""));
+    assert!(
+        err.contains("different scenarios ('paper-case1' and 'other')"),
+        "{err}"
+    );
+    assert!(err.contains(s(&b)), "{err}");
+    let (code, _, err) = run(&["compare", s(&a), s(&a), "--threshold=-1"]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("threshold -1: must be a positive number"),
+        "{err}"
+    );
+}

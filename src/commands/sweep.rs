@@ -9,7 +9,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use study::LoadedScenario;
 use study::sweep::{self, Plan, Shard};
 
-use crate::cli::{MergeArgs, SweepArgs};
+use crate::cli::{CompareArgs, MergeArgs, SweepArgs};
 use crate::output::summary_table;
 
 /// Default worker count: every core.
@@ -162,4 +162,79 @@ pub fn merge(args: &MergeArgs, out: &mut dyn Write) -> Result<()> {
     )?;
     write!(out, "{}", summary_table(&merged.summary))?;
     Ok(())
+}
+
+/// The sweeps compared differ beyond the threshold (exit code 1, like `diff`).
+#[derive(Debug)]
+pub struct Differs {
+    /// Medians and efficiencies above the threshold.
+    pub changed: usize,
+    /// The threshold.
+    pub threshold: f64,
+}
+
+impl std::fmt::Display for Differs {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} median(s) or efficienc(ies) differ by more than {} Monte Carlo standard errors",
+            self.changed, self.threshold
+        )
+    }
+}
+
+impl std::error::Error for Differs {}
+
+/// Runs `frameid compare`: the comparison on standard output, then an error
+/// ([`Differs`]) if anything differs beyond the threshold.
+pub fn compare(args: &CompareArgs, out: &mut dyn Write) -> Result<()> {
+    use study::sweep::compare::{Difference, Statistic};
+    let c = study::sweep::compare::compare_dirs(&args.first, &args.second, args.threshold)?;
+    if args.json {
+        serde_json::to_writer_pretty(&mut *out, &c)?;
+        writeln!(out)?;
+    } else {
+        let line = |d: &Difference| {
+            let what = match d.statistic {
+                Statistic::Median => "median",
+                Statistic::Efficiency => "efficiency",
+            };
+            let axis = if d.axis_value.is_empty() {
+                String::new()
+            } else {
+                format!(", axis {}", d.axis_value)
+            };
+            format!(
+                "{what} of {} at noise {}{axis}: {:.4e} -> {:.4e} ({:.2} standard errors of {:.2e})",
+                d.score, d.noise, d.first, d.second, d.z, d.standard_error
+            )
+        };
+        writeln!(
+            out,
+            "{} cells, {} medians and efficiencies compared, {} without a Monte Carlo error (compared exactly)",
+            c.cells, c.compared, c.without_error
+        )?;
+        if let Some(d) = &c.largest {
+            writeln!(out, "largest difference: {}", line(d))?;
+        }
+        if c.agrees() {
+            writeln!(
+                out,
+                "agree: every difference within {} standard errors",
+                c.threshold
+            )?;
+        }
+        for d in &c.changed {
+            writeln!(out, "changed: {}", line(d))?;
+        }
+    }
+    if c.agrees() {
+        Ok(())
+    } else {
+        Err(Differs {
+            changed: c.changed.len(),
+            threshold: c.threshold,
+        }
+        .into())
+    }
 }

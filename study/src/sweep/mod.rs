@@ -9,6 +9,7 @@
 //! that order, so one run, any thread count, and merged shards give
 //! byte-identical `trials.csv` and `summary.json`.
 
+pub mod compare;
 pub mod stats;
 
 use std::collections::BTreeMap;
