@@ -155,6 +155,29 @@ impl Spectra {
         Self { groups, y, u }
     }
 
+    /// Every `stride`-th bin of each group, from its first: the same hits, a subset of their
+    /// equations.
+    pub(crate) fn every(&self, stride: usize) -> Self {
+        let groups: Vec<Group> = self
+            .groups
+            .iter()
+            .map(|g| Group {
+                len: g.len,
+                bins: g.bins.iter().step_by(stride).copied().collect(),
+                hits: g.hits.clone(),
+            })
+            .collect();
+        let pick = |x: &DMatrix<C64>| {
+            let cols = x.ncols().div_ceil(stride);
+            DMatrix::from_fn(x.nrows(), cols, |i, j| x[(i, j * stride)])
+        };
+        Self {
+            groups,
+            y: self.y.iter().map(pick).collect(),
+            u: self.u.iter().map(pick).collect(),
+        }
+    }
+
     /// Number of hits.
     pub(crate) fn hits(&self) -> usize {
         self.y.len()

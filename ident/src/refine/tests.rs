@@ -1208,3 +1208,78 @@ fn last_point_is_within_the_statistical_tolerance() {
         assert_eq!(refined.cost, ev.cost, "{intersample:?} {noise_model:?}");
     }
 }
+
+/// The first run on every other bin ([`FIRST_RUN_BIN_STRIDE`]): the subset keeps those bins
+/// and their DFT values, and a refinement from a poor start (M and K 2 % off, damping x3)
+/// converges to the optimum of one whose first run is on every bin (held and band-limited).
+#[test]
+fn first_run_on_every_other_bin_reaches_the_same_optimum() {
+    let (m, k, r) = testkit::paper_case1().into_parts();
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let records = random_records(&held_model(&m, &k, &r), &mut rng, 4, 1024, 0.01);
+    let initial = SecondOrder::new(m.map(|v| v * 1.02), k.map(|v| v * 0.98), r.map(|v| v * 3.0));
+    for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
+        let refiner = Refiner::default().intersample(intersample);
+        let problem = refiner.problem(&records, DT, 2).unwrap();
+        let coarse = problem.subset(2).unwrap();
+        let (all_bins, some) = (&problem.spectra.groups[0], &coarse.spectra.groups[0]);
+        let every_other: Vec<_> = all_bins.bins.iter().step_by(2).copied().collect();
+        assert_eq!(some.bins, every_other, "{intersample:?}");
+        assert_eq!(some.hits, all_bins.hits, "{intersample:?}");
+        for h in 0..records.len() {
+            for j in 0..some.bins.len() {
+                assert_eq!(
+                    coarse.spectra.y[h].column(j),
+                    problem.spectra.y[h].column(2 * j)
+                );
+                assert_eq!(
+                    coarse.spectra.u[h].column(j),
+                    problem.spectra.u[h].column(2 * j)
+                );
+            }
+        }
+        let run = |stride: usize| {
+            on_a_pool_thread(|| {
+                with_setting(&super::FIRST_RUN_STRIDE, stride, || {
+                    refiner.refine(&records, DT, &initial).unwrap()
+                })
+            })
+            .0
+        };
+        let (all, coarse_first) = (run(1), run(2));
+        assert!(all.stop.converged(), "{intersample:?}");
+        assert!(coarse_first.stop.converged(), "{intersample:?}");
+        let moved = all
+            .parameters
+            .iter()
+            .zip(coarse_first.parameters.iter())
+            .zip(all.uncertainty.parameter_std.iter())
+            .map(|((a, b), sd)| (a - b).abs() / sd)
+            .fold(0.0, f64::max);
+        let levels = |r: &Refinement| {
+            r.noise
+                .outputs
+                .iter()
+                .chain(&r.noise.inputs)
+                .copied()
+                .collect::<Vec<_>>()
+        };
+        let noise_moved = levels(&all)
+            .iter()
+            .zip(levels(&coarse_first))
+            .map(|(a, b)| (a - b).abs() / a)
+            .fold(0.0, f64::max);
+        println!("{intersample:?}: parameters moved {moved:.2e} std, noise {noise_moved:.2e}");
+        // Measured: 3.0e-4 and 3.9e-3 standard deviations, noise levels 9.2e-4 and 2.6e-4
+        // (held, band-limited); the alternation of noise fit and refinement stops about 2e-3
+        // from its fixed point (see `NOISE_CHANGE_TOLERANCE`).
+        assert!(
+            moved < 2e-2,
+            "{intersample:?}: {moved:e} standard deviations"
+        );
+        assert!(
+            noise_moved < 3e-3,
+            "{intersample:?}: noise levels {noise_moved:e}"
+        );
+    }
+}
