@@ -374,6 +374,9 @@ pub struct CompareArgs {
     /// Differences above this many combined Monte Carlo standard errors count as changes
     #[arg(long, default_value_t = study::sweep::compare::DEFAULT_THRESHOLD)]
     pub threshold: f64,
+    /// Scores to leave out, comma separated (e.g. refine_iterations, which a faster optimizer changes)
+    #[arg(long, value_delimiter = ',')]
+    pub ignore: Vec<String>,
     /// Write the comparison as JSON instead of text
     #[arg(long)]
     pub json: bool,

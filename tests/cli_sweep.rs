@@ -351,6 +351,23 @@ fn compare_flags_medians_and_efficiencies_beyond_their_monte_carlo_errors() {
     };
     write(&summary);
     let within = ok(&["compare", s(&a), s(&b)]);
+    // Left out, the moved median is not compared; an unknown name is refused.
+    let left = ok(&[
+        "compare",
+        s(&a),
+        s(&b),
+        "--threshold",
+        "3",
+        "--ignore",
+        "mass_err",
+    ]);
+    assert!(left.contains("left out: mass_err"), "{left}");
+    let (code, _, err) = run(&["compare", s(&a), s(&b), "--ignore", "mass"]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("--ignore mass: no score of that name"),
+        "{err}"
+    );
     assert!(
         within.contains("largest difference: median of mass_err"),
         "{within}"

@@ -189,7 +189,12 @@ impl std::error::Error for Differs {}
 /// ([`Differs`]) if anything differs beyond the threshold.
 pub fn compare(args: &CompareArgs, out: &mut dyn Write) -> Result<()> {
     use study::sweep::compare::{Difference, Statistic};
-    let c = study::sweep::compare::compare_dirs(&args.first, &args.second, args.threshold)?;
+    let c = study::sweep::compare::compare_dirs(
+        &args.first,
+        &args.second,
+        args.threshold,
+        &args.ignore,
+    )?;
     if args.json {
         serde_json::to_writer_pretty(&mut *out, &c)?;
         writeln!(out)?;
@@ -211,8 +216,15 @@ pub fn compare(args: &CompareArgs, out: &mut dyn Write) -> Result<()> {
         };
         writeln!(
             out,
-            "{} cells, {} medians and efficiencies compared, {} without a Monte Carlo error (compared exactly)",
-            c.cells, c.compared, c.without_error
+            "{} cells, {} medians and efficiencies compared, {} without a Monte Carlo error (compared exactly){}",
+            c.cells,
+            c.compared,
+            c.without_error,
+            if c.ignored.is_empty() {
+                String::new()
+            } else {
+                format!("; left out: {}", c.ignored.join(", "))
+            }
         )?;
         if let Some(d) = &c.largest {
             writeln!(out, "largest difference: {}", line(d))?;

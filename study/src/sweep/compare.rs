@@ -67,6 +67,8 @@ pub struct Comparison {
     pub changed: Vec<Difference>,
     /// The threshold used.
     pub threshold: f64,
+    /// Scores left out by name (as given).
+    pub ignored: Vec<String>,
 }
 
 impl Comparison {
@@ -98,9 +100,14 @@ fn axis_text(l: &LevelSummary) -> String {
 
 /// [`compare`] of the summaries of two sweep directories; errors name the
 /// directories.
-pub fn compare_dirs(first: &Path, second: &Path, threshold: f64) -> Result<Comparison, StudyError> {
+pub fn compare_dirs(
+    first: &Path,
+    second: &Path,
+    threshold: f64,
+    ignore: &[String],
+) -> Result<Comparison, StudyError> {
     let (a, b) = (read_summary(first)?, read_summary(second)?);
-    compare(&a, &b, threshold).map_err(|problem| StudyError::Merge {
+    compare(&a, &b, threshold, ignore).map_err(|problem| StudyError::Merge {
         problem: format!(
             "cannot compare {} with {}: {problem}",
             first.display(),
@@ -110,10 +117,17 @@ pub fn compare_dirs(first: &Path, second: &Path, threshold: f64) -> Result<Compa
 }
 
 /// Compares every median and efficiency the two summaries share, cell by
-/// cell (same axis value and noise level). Refuses summaries of different
-/// scenarios (by name) or without a common cell, and a threshold that is not
-/// a positive number, saying which.
-pub fn compare(first: &Summary, second: &Summary, threshold: f64) -> Result<Comparison, String> {
+/// cell (same axis value and noise level), except the scores named in
+/// `ignore` (bookkeeping such as `refine_iterations`, which a faster
+/// optimizer is meant to change). Refuses summaries of different scenarios
+/// (by name) or without a common cell, a threshold that is not a positive
+/// number and an ignored name that is no score of either, saying which.
+pub fn compare(
+    first: &Summary,
+    second: &Summary,
+    threshold: f64,
+    ignore: &[String],
+) -> Result<Comparison, String> {
     if !(threshold.is_finite() && threshold > 0.0) {
         return Err(format!("threshold {threshold}: must be a positive number"));
     }
@@ -123,6 +137,12 @@ pub fn compare(first: &Summary, second: &Summary, threshold: f64) -> Result<Comp
             "they are sweeps of different scenarios ('{na}' and '{nb}')"
         ));
     }
+    for name in ignore {
+        let known = |s: &Summary| s.score_names.iter().any(|k| k.to_string() == *name);
+        if !(known(first) || known(second)) {
+            return Err(format!("--ignore {name}: no score of that name"));
+        }
+    }
     let mut out = Comparison {
         cells: 0,
         compared: 0,
@@ -130,6 +150,7 @@ pub fn compare(first: &Summary, second: &Summary, threshold: f64) -> Result<Comp
         largest: None,
         changed: Vec::new(),
         threshold,
+        ignored: ignore.to_vec(),
     };
     let mut all = Vec::new();
     for la in &first.levels {
@@ -148,7 +169,7 @@ pub fn compare(first: &Summary, second: &Summary, threshold: f64) -> Result<Comp
             let (Some((va, sa)), Some((vb, sb))) = (a, b) else {
                 return;
             };
-            if !(va.is_finite() && vb.is_finite()) {
+            if !(va.is_finite() && vb.is_finite()) || ignore.contains(&key.to_string()) {
                 return;
             }
             let se = match (sa, sb) {
