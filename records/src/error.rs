@@ -408,7 +408,7 @@ pub enum Problem {
         /// The interval read with the axis taken in seconds (s).
         dt_s: f64,
         /// How to state the unit in this format, e.g. "write the header
-        /// 'time [ms]' (or 'time [s]' if they are seconds)".
+        /// `'time [ms]'` (or `'time [s]'` if they are seconds)".
         declare: String,
     },
 
