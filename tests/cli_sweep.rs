@@ -77,6 +77,90 @@ fn results_are_identical_for_any_thread_count_and_shard_split() {
     assert!(err.contains("a different sweep"), "{err}");
 }
 
+/// `merge` compared the plans only: shards written by different frameid
+/// versions were merged without a word, although their trials need not be
+/// the same computation. A shard whose `sweep.json` names another version,
+/// another value of any plan field, or another split is refused with exit
+/// code 2, naming its directory, the field and both values, and nothing is
+/// written.
+#[test]
+fn merge_refuses_shards_of_another_version_plan_or_split() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenario = repo("scenarios/paper-case1.toml");
+    let shard = |name: &str, part: &str| {
+        let out = dir.path().join(name);
+        ok(&[
+            "sweep",
+            s(&scenario),
+            "--out",
+            s(&out),
+            "--trials",
+            "1",
+            "--noise",
+            "0.01",
+            "--shard",
+            part,
+        ]);
+        out
+    };
+    let (a, b) = (shard("a", "1/2"), shard("b", "2/2"));
+    let manifest = read_json(&b.join("sweep.json"));
+    let version = manifest["frameid_version"].as_str().unwrap().to_string();
+    // `b` copied with one field of its sweep.json changed.
+    let edited = |name: &str, edit: &dyn Fn(&mut Value)| {
+        let out = dir.path().join(name);
+        std::fs::create_dir(&out).unwrap();
+        for f in ["trials.csv", "sweep.json"] {
+            std::fs::copy(b.join(f), out.join(f)).unwrap();
+        }
+        let mut m = manifest.clone();
+        edit(&mut m);
+        std::fs::write(out.join("sweep.json"), m.to_string()).unwrap();
+        out
+    };
+    let refused = |other: &Path, needles: &[&str]| {
+        let merged = dir.path().join("merged");
+        let (code, out, err) = run(&["merge", s(&a), s(other), "--out", s(&merged)]);
+        assert_eq!(code, 2, "{err}");
+        assert!(out.is_empty(), "{out}");
+        for n in needles {
+            assert!(err.contains(n), "expected '{n}' in:\n{err}");
+        }
+        assert!(!merged.exists(), "nothing is written");
+    };
+    let old = edited("old", &|m| m["frameid_version"] = "0.0.1".into());
+    refused(
+        &old,
+        &[&format!(
+            "{}: written by frameid 0.0.1, {} by frameid {version} (sweep.json frameid_version)",
+            old.display(),
+            a.display()
+        )],
+    );
+    let seed = manifest["plan"]["seed"].as_u64().unwrap();
+    let reseeded = edited("reseeded", &|m| m["plan"]["seed"] = (seed + 1).into());
+    refused(
+        &reseeded,
+        &[&format!(
+            "{}: a different sweep than {}: sweep.json plan.seed is {} here, {seed} there",
+            reseeded.display(),
+            a.display(),
+            seed + 1
+        )],
+    );
+    let split = edited("split", &|m| m["shard"]["count"] = 3.into());
+    refused(
+        &split,
+        &[&format!(
+            "{}: shard 2/3, {} shard 1/2 (sweep.json shard)",
+            split.display(),
+            a.display()
+        )],
+    );
+    // Unedited, the two shards merge.
+    ok(&["merge", s(&a), s(&b), "--out", s(&dir.path().join("m"))]);
+}
+
 fn median(summary: &Value, level: usize, score: &str) -> f64 {
     summary["levels"][level]["scores"][score]["median"]
         .as_f64()

@@ -40,12 +40,16 @@ pub(crate) fn split_unit(header: &str) -> (String, Option<String>) {
     (h.to_string(), None)
 }
 
+/// Names of a time column that state no unit (taken as seconds, unless the
+/// interval is implausible: [`timeaxis::UNDECLARED_UNIT_MAX_DT_S`]).
+const UNITLESS_TIME_NAMES: [&str; 3] = ["time", "t", "zeit"];
+
 /// Scale to seconds if `bare`/`unit` name a time column; `Err` carries an
 /// unsupported unit.
 pub(crate) fn time_column_scale(bare: &str, unit: Option<&str>) -> Option<Result<f64, String>> {
     let name = bare.to_ascii_lowercase();
     let implied = match name.as_str() {
-        "time" | "t" | "zeit" => None,
+        n if UNITLESS_TIME_NAMES.contains(&n) => None,
         "time_s" | "t_s" | "time_sec" => Some(1.0),
         "time_ms" | "t_ms" => Some(1e-3),
         _ => return None,
@@ -63,6 +67,12 @@ pub(crate) fn time_column_scale(bare: &str, unit: Option<&str>) -> Option<Result
             }
         }
     })
+}
+
+/// Whether a time column's header (`bare`, `unit`) states its unit: a unit
+/// in brackets or a name such as `time_ms`; `time` alone does not.
+fn time_unit_declared(bare: &str, unit: Option<&str>) -> bool {
+    unit.is_some() || !UNITLESS_TIME_NAMES.contains(&bare.to_ascii_lowercase().as_str())
 }
 
 pub(crate) type Cells<'a> = Vec<std::borrow::Cow<'a, str>>;
@@ -370,6 +380,7 @@ fn parse_lines<R: BufRead>(
         names,
         trailing_delimiter,
         time_scale,
+        time_unit_declared,
         mut channels,
     } = parse_header(&header_text, header_line, path)?;
     let ncols = names.len();
@@ -451,7 +462,7 @@ fn parse_lines<R: BufRead>(
         header_line,
         &names,
         delim,
-        time_scale,
+        (time_scale, time_unit_declared),
         Columns {
             time,
             time_model,
@@ -470,6 +481,9 @@ struct Header {
     trailing_delimiter: bool,
     /// Seconds per unit of the time column (column 1), if there is one.
     time_scale: Option<f64>,
+    /// The time column's header states its unit (`time [s]`, `time_ms`;
+    /// not `time`). False without a time column.
+    time_unit_declared: bool,
     /// The channels, without values.
     channels: Vec<Channel>,
 }
@@ -514,6 +528,7 @@ fn parse_header(header_text: &str, header_line: usize, path: &Path) -> Result<He
 
     // Columns: names, units, time column.
     let mut time_scale = None;
+    let mut declared = false;
     let mut channels = Vec::with_capacity(ncols);
     for (i, header) in names.iter().enumerate() {
         let at = || Location::cell(header_line, i + 1, header);
@@ -527,6 +542,7 @@ fn parse_header(header_text: &str, header_line: usize, path: &Path) -> Result<He
             }
             time_scale =
                 Some(scale.map_err(|unit| err(at(), Problem::UnsupportedTimeUnit { unit }))?);
+            declared = time_unit_declared(&bare, unit.as_deref());
             continue;
         }
         channels.push(Channel {
@@ -547,6 +563,7 @@ fn parse_header(header_text: &str, header_line: usize, path: &Path) -> Result<He
         names,
         trailing_delimiter,
         time_scale,
+        time_unit_declared: declared,
         channels,
     })
 }
@@ -564,14 +581,15 @@ struct Columns {
 }
 
 /// The record from its header and data rows: refuses a header-only file, checks the time
-/// axis against `opts` and sets the sampling.
+/// axis against `opts` and sets the sampling. `time` is the time column's seconds per unit
+/// (`None` without one) and whether its header states the unit.
 fn finish(
     path: &Path,
     opts: &ReadOptions,
     header_line: usize,
     names: &[String],
     delim: char,
-    time_scale: Option<f64>,
+    (time_scale, time_unit_declared): (Option<f64>, bool),
     columns: Columns,
 ) -> Result<RecordFile, RecordError> {
     let err = |at: Location, problem: Problem| parse_error(path, at, problem);
@@ -623,6 +641,16 @@ fn finish(
                             },
                         ));
                     }
+                } else if !time_unit_declared && dt >= timeaxis::UNDECLARED_UNIT_MAX_DT_S {
+                    return Err(err(
+                        Location::cell(header_line, 1, time_name),
+                        Problem::UndeclaredTimeUnit {
+                            dt_s: dt,
+                            declare: format!(
+                                "write the header '{time_name} [ms]' (or '{time_name} [s]' if they are seconds)"
+                            ),
+                        },
+                    ));
                 }
                 (time[0], dt)
             }
@@ -736,11 +764,19 @@ pub(crate) fn header_round_trip_problem(ch: &Channel, index: usize) -> Option<St
     None
 }
 
-/// Renders a validated record as CSV text: `time,<channels...>`.
+/// Renders a validated record as CSV text: `time,<channels...>` (`time [s]`
+/// from an interval of [`timeaxis::UNDECLARED_UNIT_MAX_DT_S`] on, which the
+/// reader refuses under a bare `time`).
 pub(crate) fn render_csv(rec: &RecordFile) -> String {
     let n = rec.len();
     let mut out = String::with_capacity((rec.channels.len() + 1) * n * 12 + 64);
-    out.push_str("time");
+    // `time` alone is read as seconds only below this interval; the unit is
+    // written only where needed, so that every other file stays as before.
+    out.push_str(if rec.dt_s >= timeaxis::UNDECLARED_UNIT_MAX_DT_S {
+        "time [s]"
+    } else {
+        "time"
+    });
     for ch in &rec.channels {
         out.push(',');
         out.push_str(&header_cell(ch));

@@ -44,6 +44,7 @@ pub(super) fn parse_csv_oracle(
         names,
         trailing_delimiter,
         time_scale,
+        time_unit_declared,
         mut channels,
     } = parse_header(&header_text, header_line, path)?;
     let ncols = names.len();
@@ -99,7 +100,7 @@ pub(super) fn parse_csv_oracle(
         header_line,
         &names,
         delim,
-        time_scale,
+        (time_scale, time_unit_declared),
         Columns {
             time,
             time_model,

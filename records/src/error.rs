@@ -395,6 +395,23 @@ pub enum Problem {
         file_dt_s: f64,
     },
 
+    /// A time axis whose unit the file does not state (a CSV column headed
+    /// `time` or `t`, a UFF abscissa labelled `NONE` or blank) and whose
+    /// interval, taken in seconds, is 1 s or more: too slow for any
+    /// structural test, and what times in milliseconds read as seconds
+    /// look like. Declaring the unit or passing `fs_hz` lifts the refusal.
+    #[error(
+        "the time axis states no unit and, read as seconds, its interval is {dt_s} s ({} Hz sampling), too slow for a structural test: are the times in milliseconds? {declare}, or pass fs_hz",
+        1.0 / dt_s
+    )]
+    UndeclaredTimeUnit {
+        /// The interval read with the axis taken in seconds (s).
+        dt_s: f64,
+        /// How to state the unit in this format, e.g. "write the header
+        /// `'time [ms]'` (or `'time [s]'` if they are seconds)".
+        declare: String,
+    },
+
     // ----- UFF -----
     /// A line where a dataset must open or close (`    -1`) holds something else.
     #[error("expected a dataset delimiter line '    -1', found '{found}'")]

@@ -1028,7 +1028,8 @@ pub struct BandSnr {
     pub coherence: f64,
     /// `10 log10(gamma^2 / (1 - gamma^2))` of that mean coherence, dB: the
     /// power the force explains over the rest (noise, other inputs,
-    /// leakage). Capped at 60 dB (coherence 1 - 1e-6).
+    /// leakage). Capped at 60 dB (coherence 1 - 1e-6) and at -60 dB
+    /// (coherence 1e-6).
     pub snr_db: f64,
     /// Whether the force excites the band (nearly all its lines within
     /// 20 dB of the force's largest, see [`EXCITED_LINE`] and
@@ -1050,7 +1051,8 @@ pub struct ChannelBandSnr {
     pub bands: Vec<BandSnr>,
 }
 
-/// Largest SNR reported, dB (a coherence of 1 - 1e-6).
+/// Largest SNR reported, dB (a coherence of 1 - 1e-6); its negative is the
+/// smallest (a coherence of 1e-6).
 pub const MAX_BAND_SNR_DB: f64 = 60.0;
 
 /// SNR of `y` against the force `x` sampled every `dt_s` seconds, in
@@ -1101,8 +1103,9 @@ pub fn band_snr(x: &[f64], y: &[f64], dt_s: f64, min_snr_db: f64) -> Vec<BandSnr
     for (b, &excited) in out.iter_mut().zip(&force) {
         b.excited = excited as f64 >= EXCITED_BAND * b.lines as f64;
         b.coherence /= b.lines as f64;
-        let g = b.coherence.min(1.0 - 1e-6);
-        b.snr_db = (10.0 * (g / (1.0 - g)).log10()).min(MAX_BAND_SNR_DB);
+        // Within 1e-6 of 0 and 1: +-60 dB, never infinite.
+        let g = b.coherence.clamp(1e-6, 1.0 - 1e-6);
+        b.snr_db = (10.0 * (g / (1.0 - g)).log10()).clamp(-MAX_BAND_SNR_DB, MAX_BAND_SNR_DB);
         b.low = b.excited && b.snr_db < min_snr_db;
     }
     out
@@ -1124,8 +1127,9 @@ pub const EXCITED_BAND: f64 = 0.9;
 
 /// The Welch coherence of [`mean_coherence`]: the line spacing in units of
 /// the sampling rate and, for lines 1 to 0.8 of the Nyquist frequency, the
-/// coherence and the force's (unscaled) auto-spectrum (`None` where a
-/// channel has no power). `None` for records under 64 samples.
+/// coherence and the force's auto-spectrum (`None` where a channel has no
+/// power; scaled by a power of two when the force's samples are beyond
+/// 1e-100..1e100, so only to be compared with its own lines). `None` for records under 64 samples.
 #[allow(clippy::type_complexity)]
 fn coherence_bins(x: &[f64], y: &[f64]) -> Option<(f64, Vec<Option<(f64, f64)>>)> {
     use rustfft::FftPlanner;
@@ -1134,6 +1138,23 @@ fn coherence_bins(x: &[f64], y: &[f64]) -> Option<(f64, Vec<Option<(f64, f64)>>)
     if n < 64 {
         return None;
     }
+    // The coherence does not change when `x` or `y` is scaled, but the
+    // spectra square sums of up to n samples: samples beyond about 1e150
+    // overflowed them (a coherence of inf / inf, NaN, null in the JSON),
+    // below about 1e-160 they underflowed. Such a signal is scaled by a
+    // power of two (exact) bringing its largest sample near 1; signals
+    // within 1e-100..1e100 are taken as they are, as always.
+    fn in_range(v: &[f64]) -> Cow<'_, [f64]> {
+        let m = v.iter().fold(0.0_f64, |m, a| m.max(a.abs()));
+        if m == 0.0 || (1e-100..=1e100).contains(&m) {
+            Cow::Borrowed(v)
+        } else {
+            let factor = 2f64.powi(-(m.log2().floor() as i32).clamp(-1000, 1000));
+            Cow::Owned(v.iter().map(|a| a * factor).collect())
+        }
+    }
+    let (x, y) = (in_range(&x[..n]), in_range(&y[..n]));
+    let (x, y) = (&x[..], &y[..]);
     let len = n / 8;
     let step = len / 2;
     let window: Vec<f64> = (0..len)
@@ -1324,11 +1345,51 @@ fn with_roles<'a>(
     ins.chain(outs)
 }
 
+/// `20 log10(a / b)` for positive finite `a` and `b`, dB. The quotient
+/// as always, unless it overflows or underflows (a sample near the
+/// largest double over ordinary noise made an infinite `snr_db`, null in
+/// the JSON); then the difference of the logarithms, which is finite.
+fn amplitude_db(a: f64, b: f64) -> f64 {
+    let r = a / b;
+    if r.is_normal() {
+        20.0 * r.log10()
+    } else {
+        20.0 * (a.log10() - b.log10())
+    }
+}
+
+/// Root mean square of `x` about `base` (0 for no samples).
+///
+/// The squares are summed as they are, the value every record got so far
+/// bit for bit, unless their sum leaves the range where that is exact to
+/// rounding: a sample beyond about 1e154 overflows it to infinity (a wild
+/// sample of 1e200 made `rms` infinite, `snr_db` infinite, and both `null`
+/// in the JSON of the dropped hit), deviations all below about 1e-100
+/// underflow it toward 0. Then every deviation is divided by the largest
+/// magnitude of `x` and `base` before squaring (each term at most 4), so
+/// the result is finite for any finite samples whose RMS is (up to a
+/// quarter of the largest double).
 fn rms_about(x: &[f64], base: f64) -> f64 {
     if x.is_empty() {
         return 0.0;
     }
-    (x.iter().map(|v| (v - base) * (v - base)).sum::<f64>() / x.len() as f64).sqrt()
+    let n = x.len() as f64;
+    let plain = x.iter().map(|v| (v - base) * (v - base)).sum::<f64>();
+    // 1e-200: far above the subnormal range (2.2e-308), so every square
+    // that matters to the sum was kept; no real record comes near it.
+    if plain.is_finite() && plain > 1e-200 {
+        return (plain / n).sqrt();
+    }
+    let scale = x.iter().fold(base.abs(), |m, v| m.max(v.abs()));
+    if !(scale > 0.0 && scale.is_finite()) {
+        return if scale == 0.0 { 0.0 } else { f64::NAN };
+    }
+    let b = base / scale;
+    let sum = x
+        .iter()
+        .map(|v| (v / scale - b) * (v / scale - b))
+        .sum::<f64>();
+    scale * (sum / n).sqrt()
 }
 
 fn channel_quality(
@@ -1352,7 +1413,7 @@ fn channel_quality(
     let noise_rms = noise_ok.then(|| rms_about(noise, base));
     let snr_db = noise_rms
         .filter(|&nr| nr > 0.0 && rms > 0.0)
-        .map(|nr| 20.0 * (rms / nr).log10());
+        .map(|nr| amplitude_db(rms, nr));
     let (clip_run, clip_samples) = extremes(x, base, peak);
     let range = match role {
         Role::Input => settings.force_range,
@@ -1632,7 +1693,7 @@ fn pulse_quality(
         .copied()
         .fold((0.0, f64::INFINITY), |b, m| if m.1 < b.1 { m } else { b });
     let drop_db = if max > 0.0 && min > 0.0 {
-        20.0 * (max / min).log10()
+        amplitude_db(max, min)
     } else if max > 0.0 {
         f64::INFINITY
     } else {
@@ -1651,7 +1712,7 @@ fn pulse_quality(
     };
     PulseQuality {
         channel: name.to_string(),
-        peak_to_noise_db: (hit.sigma > 0.0).then(|| 20.0 * (hit.peak / hit.sigma).log10()),
+        peak_to_noise_db: (hit.sigma > 0.0).then(|| amplitude_db(hit.peak, hit.sigma)),
         double_hit_ratio: ratio,
         double_hit_delay_s: delay.map(|d| d as f64 * dt_s),
         band_hz,
@@ -1777,6 +1838,43 @@ mod tests {
                 (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
             })
             .collect()
+    }
+
+    /// The coherence does not depend on the scale of either signal; with
+    /// samples beyond 1e150 the squared spectra overflowed and the mean
+    /// coherence was NaN (null in the JSON of a continuous record), below
+    /// 1e-160 they underflowed. Scaled signals give the unscaled values.
+    #[test]
+    fn coherence_of_huge_and_tiny_signals() {
+        let n = 16384;
+        let x = gaussian(1, n);
+        let noise = gaussian(2, n);
+        let y: Vec<f64> = x.iter().zip(&noise).map(|(a, e)| 2.0 * a + e).collect();
+        let want = mean_coherence(&x, &y);
+        let want_bands = band_snr(&x, &y, 1.0 / 64.0, 0.0);
+        for (sx, sy) in [(1.0, 1e200), (1e-170, 1.0), (1e300, 1e-300), (1.0, 1e99)] {
+            let xs: Vec<f64> = x.iter().map(|v| v * sx).collect();
+            let ys: Vec<f64> = y.iter().map(|v| v * sy).collect();
+            let got = mean_coherence(&xs, &ys);
+            // Scaling by a power of ten rounds each sample once (1.1e-16);
+            // the spectra and the mean over ~800 lines carry that to well
+            // under 1e-12.
+            assert!((got - want).abs() < 1e-12, "{sx:e} {sy:e}: {got} vs {want}");
+            let bands = band_snr(&xs, &ys, 1.0 / 64.0, 0.0);
+            assert_eq!(bands.len(), want_bands.len());
+            for (b, w) in bands.iter().zip(&want_bands) {
+                assert!((b.coherence - w.coherence).abs() < 1e-12, "{b:?} {w:?}");
+            }
+        }
+        // A single wild sample: finite, whatever it does to the coherence.
+        let mut wild = y.clone();
+        wild[n / 2] = 1e200;
+        assert!(mean_coherence(&x, &wild).is_finite());
+        assert!(
+            band_snr(&x, &wild, 1.0 / 64.0, 0.0)
+                .iter()
+                .all(|b| b.coherence.is_finite() && b.snr_db.is_finite())
+        );
     }
 
     /// A gain plus independent white noise: the coherence is
@@ -2023,6 +2121,74 @@ mod tests {
             again[0].flags.iter().all(|f| f.check != Check::Drift),
             "{again:?}"
         );
+    }
+
+    /// The RMS of samples whose squares overflow (beyond about 1e154) or
+    /// underflow (below about 1e-154) is the RMS of the same samples
+    /// scaled into range, times the scale: finite, where the plain sum of
+    /// squares gave infinity (written as null in the hit quality JSON of a
+    /// record with one sample at 1e200) or 0.
+    #[test]
+    fn rms_of_huge_and_tiny_samples_is_finite() {
+        let x: Vec<f64> = (0..1000).map(|i| ((i as f64) * 0.37).sin()).collect();
+        let plain = rms_about(&x, 0.1);
+        for scale in [1e200, 1e300, 1e-170, 1e-300] {
+            let y: Vec<f64> = x.iter().map(|v| v * scale).collect();
+            let r = rms_about(&y, 0.1 * scale);
+            // Scaling by a power of ten rounds every sample once (1.1e-16)
+            // and the sum of 1000 terms adds up to ~1e-13: 1e-12 is safe.
+            assert!(
+                (r / scale - plain).abs() <= 1e-12 * plain,
+                "{scale:e}: {r:e} against {:e}",
+                plain * scale
+            );
+        }
+        // One wild sample among ordinary ones: the RMS is that sample's
+        // share, 1e200 / sqrt(n), within rounding (the others add 1e-400
+        // of it).
+        let mut y = x.clone();
+        y[500] = 1e200;
+        let r = rms_about(&y, 0.0);
+        assert!((r - 1e200 / 1000f64.sqrt()).abs() <= 1e-15 * r, "{r:e}");
+        // Ordinary samples keep the plain sum, bit for bit.
+        let direct = (x.iter().map(|v| (v - 0.1) * (v - 0.1)).sum::<f64>() / 1000.0).sqrt();
+        assert_eq!(plain.to_bits(), direct.to_bits());
+        assert_eq!(rms_about(&[0.0, 0.0], 0.0), 0.0);
+        assert_eq!(rms_about(&[3.0, 3.0], 3.0), 0.0);
+        assert_eq!(rms_about(&[], 1.0), 0.0);
+    }
+
+    /// A record with one sample at 1e200 in an output (a transmission
+    /// error): every statistic of the channel's quality is finite, so that
+    /// none is null in the JSON of the (dropped) hit. The RMS squared its
+    /// samples and overflowed to infinity, and `snr_db` with it.
+    #[test]
+    fn wild_sample_gives_finite_channel_statistics() {
+        let names = |s: &str| vec![s.to_string()];
+        // -1.7e308: the RMS is finite (3.8e306 over 4096 samples) but over
+        // the noise it overflowed, and `snr_db` was infinite.
+        for wild in [1e200, -1.7e308] {
+            let (mut hit, dt_s) = drifting_hit(0.0, 0.0);
+            let n = hit.len();
+            hit.outputs[(0, n / 2)] = wild;
+            let q = assess_hit(
+                &hit,
+                dt_s,
+                &names("force"),
+                &names("acc"),
+                &QualitySettings::default(),
+            );
+            let acc = &q.channels[1];
+            assert!(acc.rms.is_finite() && acc.rms > 1e190, "{acc:?}");
+            let snr = acc.snr_db.expect("the record has a pre-trigger");
+            assert!(snr.is_finite(), "{acc:?}");
+            assert!(acc.tail_ratio.is_some_and(f64::is_finite), "{acc:?}");
+            assert!(q.crest_factor.is_finite(), "{q:?}");
+            // The output's entry has no null field (an input's
+            // `tail_ratio` is null by design: an output statistic).
+            let json = serde_json::to_string(acc).unwrap();
+            assert!(!json.contains("null"), "{json}");
+        }
     }
 
     #[test]

@@ -41,6 +41,25 @@
 
 use crate::numfmt::Printed;
 
+/// Sampling intervals (s) at and above which a time axis whose unit the file
+/// does not state is refused rather than taken as seconds.
+///
+/// Structural tests sample at tens of hertz to kilohertz: building models
+/// have their modes at 0.5-100 Hz, full-scale buildings at 0.1-10 Hz, and
+/// a record sees a mode only below half its sampling rate (analyzers
+/// sample at 2.56 times their band). An interval of 1 s (1 Hz sampling,
+/// Nyquist 0.5 Hz) sees none of a model's modes and hardly any building's.
+/// Times written in milliseconds and read as seconds give exactly such
+/// intervals, 1000 times too large, for every true rate up to 1 kHz (at
+/// 64 Hz: 15.625 "s"), and every M, K and damping identified from them is
+/// wrong by orders of magnitude with no other symptom. Not lower: records
+/// at 1-10 kHz written in milliseconds read as 0.1-1 s, which this misses,
+/// but 1-10 Hz sampling is a real choice (ambient tests of tall buildings,
+/// decimated records), and refusing those would refuse good files.
+/// Declaring the unit (`time [s]`, `time_ms`, a UFF abscissa label) or
+/// passing the sampling rate lifts the refusal.
+pub(crate) const UNDECLARED_UNIT_MAX_DT_S: f64 = 1.0;
+
 /// Fraction of `dt` always tolerated (double-precision accumulation).
 const FLOOR: f64 = 1e-4;
 /// Fraction of `dt` never exceeded (see the module documentation).

@@ -634,6 +634,9 @@ fn read_tag(id5: &str) -> Option<(f64, f64)> {
 struct Dataset {
     index: usize,
     rec7_line: usize,
+    /// Line of record 8 (abscissa data characteristics) and whether its
+    /// units label states a unit (not blank, not `NONE`).
+    rec8: (usize, bool),
     binary: bool,
     start: f64,
     dt: f64,
@@ -1038,6 +1041,7 @@ fn read_dataset58(
     Ok(Dataset {
         index: ctx.dataset,
         rec7_line,
+        rec8: (record_lines[7], meaningful(x_units).is_some()),
         binary,
         start,
         dt,
@@ -1241,6 +1245,25 @@ pub fn parse_uff58(
             Problem::FsMismatch {
                 fs_hz: fs,
                 file_dt_s: first.dt,
+            },
+        ));
+    }
+    // An abscissa without a unit is taken in seconds, unless that makes the
+    // sampling implausibly slow (milliseconds read as seconds).
+    if opts.fs_hz.is_none()
+        && let Some(d) = datasets
+            .iter()
+            .find(|d| !d.rec8.1 && d.dt >= timeaxis::UNDECLARED_UNIT_MAX_DT_S)
+    {
+        let ctx = Ctx {
+            path,
+            dataset: d.index,
+        };
+        return Err(ctx.err(
+            ctx.at(d.rec8.0, "record 8 field 6 (abscissa units label)"),
+            Problem::UndeclaredTimeUnit {
+                dt_s: d.dt,
+                declare: "set the abscissa units label to ms (or s if they are seconds)".into(),
             },
         ));
     }

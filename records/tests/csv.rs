@@ -94,6 +94,83 @@ fn fs_must_agree_with_time_column() {
     assert!(msg.contains("fs_hz = 2048"), "{msg}");
 }
 
+/// A time column in milliseconds under a header without a unit was read as
+/// seconds: at 64 Hz, dt 15.625 s, and M, K and damping wrong by orders of
+/// magnitude with no warning. A bare `time` whose interval is 1 s or more
+/// is refused naming the file, the column, the interval and the fix; a
+/// stated unit or a sampling rate is believed.
+#[test]
+fn unitless_time_column_in_milliseconds_is_refused() {
+    // 64 Hz written in milliseconds, as frameid writes numbers.
+    let rows: String = (0..8)
+        .map(|i| format!("{},{}.5,{}\n", i as f64 * 15.625, i, -i))
+        .collect();
+    for name in ["time", "Time", "t", "zeit"] {
+        let text = format!("{name},force,acc1\n{rows}");
+        let (p, msg) = parse_problem("hit1.csv", parse(&text));
+        assert!(
+            matches!(p, Problem::UndeclaredTimeUnit { dt_s, .. } if dt_s == 15.625),
+            "{msg}"
+        );
+        assert!(
+            msg.starts_with(&format!("hit1.csv: line 1, column 1 ({name}): ")),
+            "{msg}"
+        );
+        assert!(msg.contains("15.625 s (0.064 Hz sampling)"), "{msg}");
+        assert!(msg.contains(&format!("'{name} [ms]'")), "{msg}");
+    }
+    // The unit stated: milliseconds read as such, seconds believed.
+    for header in ["time [ms]", "time_ms", "t (ms)"] {
+        let r = parse(&format!("{header},force,acc1\n{rows}")).unwrap();
+        assert_eq!(r.dt_s, 1.0 / 64.0, "{header}");
+    }
+    for header in ["time [s]", "time_s", "Time (sec)"] {
+        let r = parse(&format!("{header},force,acc1\n{rows}")).unwrap();
+        assert_eq!(r.dt_s, 15.625, "{header}");
+    }
+    // A sampling rate given and agreeing with the column is a statement too.
+    let r = parse_fs(&format!("time,force,acc1\n{rows}"), 0.064).unwrap();
+    assert_eq!(r.dt_s, 15.625);
+    // Just below the threshold (1 Hz sampling is 1 s): taken as seconds.
+    let r = parse("time,force\n0,1\n0.999,2\n1.998,3\n").unwrap();
+    assert!((r.dt_s - 0.999).abs() < 1e-15);
+    let (p, _) = parse_problem("hit1.csv", parse("time,force\n0,1\n1,2\n2,3\n"));
+    assert!(matches!(p, Problem::UndeclaredTimeUnit { .. }));
+}
+
+/// frameid's writer states the unit where the reader needs it (an interval
+/// of 1 s or more), so that such a record reads back; below, the header
+/// stays `time`.
+#[test]
+fn slow_records_are_written_with_their_unit() {
+    let dir = tempfile::tempdir().unwrap();
+    for (dt_s, header) in [(2.0, "time [s]"), (0.5, "time")] {
+        let rec = RecordFile {
+            path: "slow.csv".into(),
+            format: Format::Csv { delimiter: b',' },
+            dt_s,
+            start_s: 0.0,
+            channels: vec![Channel {
+                name: "force".into(),
+                unit: None,
+                node: None,
+                direction: None,
+                id_line: None,
+                values: vec![1.0, 2.0, 3.0],
+                lines: None,
+            }],
+        };
+        let path = dir.path().join("slow.csv");
+        write_csv(&path, &rec).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.starts_with(&format!("{header},force\n")), "{text}");
+        assert_eq!(
+            read_record(&path, &ReadOptions::default()).unwrap().dt_s,
+            dt_s
+        );
+    }
+}
+
 #[test]
 fn quoted_header_and_trailing_delimiter() {
     let text = "time,\"force, hammer [N]\",acc1,\n0,1,2,\n0.5,3,4,\n";
@@ -289,7 +366,7 @@ fn invalid_fs_option() {
 
 #[test]
 fn missing_channel_lists_available() {
-    let r = parse("time,force [N],acc1,acc2\n0,1,2,3\n1,1,2,3\n").unwrap();
+    let r = parse("time,force [N],acc1,acc2\n0,1,2,3\n0.1,1,2,3\n").unwrap();
     let e = r.channel(&spec("acc3")).unwrap_err();
     assert!(matches!(e, RecordError::ChannelNotFound { .. }));
     assert_eq!(
@@ -304,7 +381,7 @@ fn missing_channel_lists_available() {
 
 #[test]
 fn duplicate_names_are_ambiguous() {
-    let r = parse("time,acc,ACC [g]\n0,1,2\n1,1,2\n").unwrap();
+    let r = parse("time,acc,ACC [g]\n0,1,2\n0.1,1,2\n").unwrap();
     let e = r.channel(&spec("acc")).unwrap_err();
     assert!(matches!(e, RecordError::AmbiguousChannel { .. }));
     assert!(e.to_string().contains("#1 acc, #2 ACC [g]"), "{e}");

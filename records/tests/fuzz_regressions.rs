@@ -110,7 +110,7 @@ fn negative_zero_start() {
     let rec = parse_record(&data, Path::new("x.uff"), &ReadOptions::default()).unwrap();
     assert_eq!(rec.start_s.to_bits(), 0.0f64.to_bits());
     let csv = parse_record(
-        b"time,a\n-0,1\n1,2\n",
+        b"time,a\n-0,1\n0.5,2\n",
         Path::new("x.csv"),
         &ReadOptions::default(),
     );

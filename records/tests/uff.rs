@@ -662,6 +662,42 @@ fn abscissa_must_be_time() {
     );
 }
 
+/// An abscissa labelled `NONE` is taken in seconds, unless the interval is
+/// then 1 s or more (milliseconds read as seconds): refused, naming the
+/// dataset and record 8. A stated unit or a sampling rate is believed.
+#[test]
+fn unitless_abscissa_in_milliseconds_is_refused() {
+    let ms = REC7.replacen("1.00000E-03", "1.56250E+01", 1);
+    let unitless = |rec7: &str| {
+        ds58("acc", REC6, rec7, &[DATA]).replacen(
+            "        17    0    0    0 Time                 s   ",
+            "        17    0    0    0 Time                 NONE",
+            1,
+        )
+    };
+    let (p, msg) = parse_problem("hit.uff", parse(unitless(&ms).as_bytes()));
+    assert!(
+        matches!(p, Problem::UndeclaredTimeUnit { dt_s, .. } if dt_s == 15.625),
+        "{msg}"
+    );
+    assert!(
+        msg.contains("dataset 1, line 10, record 8 field 6 (abscissa units label)")
+            && msg.contains("0.064 Hz sampling")
+            && msg.contains("abscissa units label to ms"),
+        "{msg}"
+    );
+    // Stated in milliseconds, in seconds, or with the rate: read.
+    let stated = ds58("acc", REC6, &ms, &[DATA]);
+    assert_eq!(parse(stated.as_bytes()).unwrap().dt_s, 15.625);
+    let stated_ms = stated.replacen("Time                 s ", "Time                 ms", 1);
+    assert_eq!(parse(stated_ms.as_bytes()).unwrap().dt_s, 15.625e-3);
+    let opts = ReadOptions::with_fs_hz(0.064);
+    let r = parse_record(unitless(&ms).as_bytes(), Path::new("hit.uff"), &opts).unwrap();
+    assert_eq!(r.dt_s, 15.625);
+    // A plausible interval without a unit is seconds, as before.
+    assert_eq!(parse(unitless(REC7).as_bytes()).unwrap().dt_s, 1e-3);
+}
+
 #[test]
 fn fs_option_must_agree() {
     let opts = ReadOptions::with_fs_hz(1000.0);

@@ -854,12 +854,8 @@ pub fn merge(dirs: &[&Path], out: &Path) -> Result<Merged, StudyError> {
         .collect::<Result<_, _>>()?;
     let first = &manifests[0];
     for (m, d) in manifests.iter().zip(dirs).skip(1) {
-        if m.plan != first.plan {
-            return Err(merge_error(format!(
-                "{}: a different sweep than {} (scenario, noise levels, trials, seed or axis differ)",
-                d.display(),
-                dirs[0].display()
-            )));
+        if let Some(problem) = manifest_mismatch((d, m), (dirs[0], first)) {
+            return Err(merge_error(problem));
         }
     }
     let truth = plan_truth(&first.plan)?;
@@ -887,6 +883,98 @@ pub fn merge(dirs: &[&Path], out: &Path) -> Result<Merged, StudyError> {
     )?;
     dir.commit()?;
     Ok(Merged { summary, warnings })
+}
+
+/// Why directory `dir` (manifest `m`) cannot be merged with directory
+/// `first_dir` (manifest `first`), as a message naming both: another
+/// frameid version (its trials need not be the ones this version
+/// computes), another plan (the first field that differs, its path in
+/// `sweep.json` and both values) or another shard split. `None` if they can
+/// be merged. The scenario path is not compared: the same scenario may sit
+/// in different places on the machines that ran the shards.
+fn manifest_mismatch(
+    (dir, m): (&Path, &Manifest),
+    (first_dir, first): (&Path, &Manifest),
+) -> Option<String> {
+    let (dir, first_dir) = (dir.display(), first_dir.display());
+    if m.frameid_version != first.frameid_version {
+        return Some(format!(
+            "{dir}: written by frameid {}, {first_dir} by frameid {} (sweep.json frameid_version): shards of different versions need not hold the same trials; run every shard with one version",
+            m.frameid_version, first.frameid_version
+        ));
+    }
+    if m.plan != first.plan {
+        let difference = match (
+            serde_json::to_value(&m.plan),
+            serde_json::to_value(&first.plan),
+        ) {
+            (Ok(a), Ok(b)) => first_difference(&a, &b, "plan"),
+            _ => None,
+        };
+        return Some(match difference {
+            Some((path, here, there)) => format!(
+                "{dir}: a different sweep than {first_dir}: sweep.json {path} is {here} here, {there} there"
+            ),
+            // Equal as JSON but not as values: not seen for plans read from
+            // JSON; refused all the same.
+            None => format!(
+                "{dir}: a different sweep than {first_dir} (scenario, noise levels, trials, seed or axis differ)"
+            ),
+        });
+    }
+    match (m.shard, first.shard) {
+        (Some(s), Some(f)) if s.count != f.count => Some(format!(
+            "{dir}: shard {}/{}, {first_dir} shard {}/{} (sweep.json shard): parts of different splits",
+            s.index, s.count, f.index, f.count
+        )),
+        _ => None,
+    }
+}
+
+/// The first place, in document order, where JSON values `a` and `b`
+/// differ: its path below `path` (`plan.seed`, `plan.noise_levels`,
+/// `plan.scenario.noise.kind`) and the two values as JSON text (shortened
+/// to 120 characters). `None` if they are equal.
+fn first_difference(
+    a: &serde_json::Value,
+    b: &serde_json::Value,
+    path: &str,
+) -> Option<(String, String, String)> {
+    use serde_json::Value;
+    match (a, b) {
+        (Value::Object(x), Value::Object(y)) => {
+            let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            keys.into_iter().find_map(|k| {
+                let child = format!("{path}.{k}");
+                match (x.get(k), y.get(k)) {
+                    (Some(u), Some(v)) => first_difference(u, v, &child),
+                    (u, v) => Some((child, shown(u), shown(v))),
+                }
+            })
+        }
+        (Value::Array(x), Value::Array(y)) if x.len() == y.len() => x
+            .iter()
+            .zip(y)
+            .enumerate()
+            .find_map(|(i, (u, v))| first_difference(u, v, &format!("{path}[{i}]"))),
+        _ if a == b => None,
+        _ => Some((path.to_string(), shown(Some(a)), shown(Some(b)))),
+    }
+}
+
+/// A JSON value as text for a message, at most 120 characters; `absent`
+/// for a missing key.
+fn shown(v: Option<&serde_json::Value>) -> String {
+    let Some(v) = v else {
+        return "absent".into();
+    };
+    let text = v.to_string();
+    match text.char_indices().nth(120) {
+        Some((cut, _)) => format!("{}...", &text[..cut]),
+        None => text,
+    }
 }
 
 /// Joins the rows of the parts of a sweep of `plan` (each named, for
