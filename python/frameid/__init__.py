@@ -17,7 +17,7 @@ interpreter, every result pickles, and every error raises :class:`Error` (a
 >>> frameid.identify_frf(frfs).mass, frfs.write("frf.uff")
 
 Functions: :func:`read_records`, :func:`identify`, :func:`identify_realization`,
-:func:`simulate`, :func:`bound`, :func:`sweep`, :func:`merge`, :func:`report`;
+:func:`simulate`, :func:`bound`, :func:`sweep`, :func:`merge`, :func:`compare`, :func:`report`;
 the FRF route: :func:`frf`, :func:`read_frf`, :func:`identify_frf`; threads:
 :func:`set_keep_awake`, :func:`keep_awake`.
 Classes: :class:`Campaign`, :class:`Identification` (with :class:`Mode`,
@@ -44,6 +44,7 @@ from ._native import (
     Uncertainty,
     __version__,
     bound,
+    compare,
     frf,
     identify,
     identify_frf,
@@ -76,6 +77,7 @@ __all__ = [
     "Uncertainty",
     "__version__",
     "bound",
+    "compare",
     "frf",
     "identify",
     "identify_frf",

@@ -754,6 +754,16 @@ def sweep(
 def merge(parts: Sequence[Sweep | _Path], *, out: _Path | None = None) -> Sweep:
     """`frameid merge` of Sweep objects or shard directories."""
 
+def compare(
+    first: Sweep | _Path,
+    second: Sweep | _Path,
+    *,
+    threshold: float = 4.0,
+    ignore: Sequence[str] = (),
+) -> dict[str, Any]:
+    """`frameid compare --json`: medians and efficiencies of two complete sweeps in units of
+    their combined Monte Carlo standard errors; ``changed`` lists those beyond ``threshold``."""
+
 def report(sweeps: Sequence[Sweep | _Path], out: _Path, *, title: str = "frameid accuracy report") -> str:
     """`frameid report`: the HTML report of sweep directories."""
 

@@ -591,6 +591,12 @@ fn merge(py: Python<'_>, parts: Vec<Bound<'_, PyAny>>, out: Option<PathBuf>) -> 
             }
             let (first_name, first) = (&named[0].0, &named[0].1);
             for (name, d) in named.iter().skip(1) {
+                if d.manifest.frameid_version != first.manifest.frameid_version {
+                    return Err(error(format!(
+                        "{name}: written by frameid {}, {first_name} by frameid {} (frameid_version): shards of different versions need not hold the same trials; run every shard with one version",
+                        d.manifest.frameid_version, first.manifest.frameid_version
+                    )));
+                }
                 if d.manifest.plan != first.manifest.plan {
                     return Err(error(format!(
                         "{name}: a different sweep than {first_name} (scenario, noise levels, trials, seed or axis differ)"
@@ -671,10 +677,58 @@ fn report(
     })
 }
 
+/// The summary of a complete `Sweep` or sweep directory, and its name for
+/// messages.
+fn summary_of(obj: &Bound<'_, PyAny>) -> PyResult<(String, lib::Summary)> {
+    if let Ok(s) = obj.cast::<Sweep>() {
+        let s = s.get();
+        let text = s.data.summary_json.as_deref().ok_or_else(|| {
+            error(format!(
+                "{}: a shard has no summary; merge the shards first",
+                s.name()
+            ))
+        })?;
+        let summary =
+            serde_json::from_str(text).map_err(|e| error(format!("{}: summary: {e}", s.name())))?;
+        Ok((s.name(), summary))
+    } else if let Ok(dir) = obj.extract::<PathBuf>() {
+        let summary = lib::compare::read_summary(&dir).map_err(lib_error)?;
+        Ok((dir.display().to_string(), summary))
+    } else {
+        Err(error(
+            "compare: expected frameid.Sweep objects or sweep directories",
+        ))
+    }
+}
+
+/// Compares two complete sweeps (``Sweep`` objects or directories) median
+/// by median and efficiency by efficiency in units of their combined Monte
+/// Carlo standard errors, as ``frameid compare --json`` does; returns that
+/// dict (``cells``, ``compared``, ``without_error``, ``largest``,
+/// ``changed``: every value beyond ``threshold``, largest first,
+/// ``threshold``, ``ignored``). ``ignore`` names scores to leave out (e.g.
+/// ``refine_iterations``). The sweeps agree when ``changed`` is empty.
+#[pyfunction]
+#[pyo3(signature = (first, second, *, threshold=lib::compare::DEFAULT_THRESHOLD, ignore=Vec::new()))]
+fn compare<'py>(
+    py: Python<'py>,
+    first: &Bound<'py, PyAny>,
+    second: &Bound<'py, PyAny>,
+    threshold: f64,
+    ignore: Vec<String>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let ((na, a), (nb, b)) = (summary_of(first)?, summary_of(second)?);
+    let c = lib::compare::compare(&a, &b, threshold, &ignore)
+        .map_err(|problem| error(format!("cannot compare {na} with {nb}: {problem}")))?;
+    let text = serde_json::to_string(&c).map_err(|e| error(e.to_string()))?;
+    arrays::json(py, &text)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Sweep>()?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
     m.add_function(wrap_pyfunction!(merge, m)?)?;
+    m.add_function(wrap_pyfunction!(compare, m)?)?;
     m.add_function(wrap_pyfunction!(report, m)?)?;
     Ok(())
 }

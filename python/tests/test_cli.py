@@ -178,3 +178,39 @@ def test_sweep_writes_what_the_cli_writes(cli, tmp_path, monkeypatch):
     whole = frameid.sweep(CASE1, noise=[0.01], trials=3, seed=4, threads=1)
     assert (tmp_path / "m" / "trials.csv").read_text(encoding="utf-8") == whole.trials_csv()
     assert (tmp_path / "m" / "summary.json").read_text(encoding="utf-8") == whole.summary_json()
+
+
+def test_compare_returns_what_the_cli_writes(cli, tmp_path, monkeypatch):
+    monkeypatch.chdir(REPO)
+    # 8 trials: the fewest with a median's Monte Carlo error.
+    a = frameid.sweep(CASE1, noise=[0.01], trials=8, seed=4, threads=1, out=tmp_path / "a")
+    b = frameid.sweep(CASE1, noise=[0.01], trials=8, seed=5, threads=1)
+    got = frameid.compare(a, b, ignore=["refine_iterations"])
+    b.write(tmp_path / "b")
+    code, out, err = cli("compare", tmp_path / "a", tmp_path / "b", "--ignore", "refine_iterations", "--json")
+    assert code in (0, 1), err
+    assert got == json.loads(out)
+    assert got["cells"] == 1 and got["compared"] > 0 and got["ignored"] == ["refine_iterations"]
+    # The same sweep as an object and as its directory: every difference is zero.
+    same = frameid.compare(a, tmp_path / "a", threshold=1e-9)
+    assert same["changed"] == [] and same["largest"]["z"] == 0.0
+    shard = frameid.sweep(CASE1, noise=[0.01], trials=8, seed=4, shard=(1, 2), threads=1)
+    with pytest.raises(frameid.Error, match="a shard has no summary; merge the shards first"):
+        frameid.compare(a, shard)
+    with pytest.raises(frameid.Error, match="threshold -1: must be a positive number"):
+        frameid.compare(a, b, threshold=-1)
+
+
+def test_merge_refuses_shards_of_another_version(tmp_path, monkeypatch):
+    monkeypatch.chdir(REPO)
+    for k in (1, 2):
+        frameid.sweep(CASE1, noise=[0.01], trials=2, seed=4, shard=(k, 2), threads=1, out=tmp_path / f"s{k}")
+    manifest = tmp_path / "s2" / "sweep.json"
+    m = json.loads(manifest.read_text(encoding="utf-8"))
+    m["frameid_version"] = "0.0.1"
+    manifest.write_text(json.dumps(m), encoding="utf-8")
+    # In memory (the package's own join) and written out (the command line's).
+    for out in (None, tmp_path / "m"):
+        with pytest.raises(frameid.Error, match=r"written by frameid 0\.0\.1"):
+            frameid.merge([tmp_path / "s1", tmp_path / "s2"], out=out)
+    assert not (tmp_path / "m").exists()

@@ -46,7 +46,8 @@ pub struct Difference {
     pub second: f64,
     /// `sqrt(se_1^2 + se_2^2)`.
     pub standard_error: f64,
-    /// `|second - first| / standard_error`.
+    /// `|second - first| / standard_error`; infinite (`null` in JSON) for
+    /// values without a Monte Carlo error that differ.
     pub z: f64,
 }
 
