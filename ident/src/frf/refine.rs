@@ -97,11 +97,14 @@
 //! `u ~ chi2(2 nu) / (2 nu)` independent of `Ĥ`. Weighting with such variances keeps the
 //! estimate unbiased, but over many lines (first order, the usual sandwich with
 //! independent `u` per value) the cost's expectation is `E[1/u] = nu / (nu - 1)` times
-//! `observations - unknowns`, and the estimate's covariance is `E[1/u^2] / E[1/u] = nu /
-//! (nu - 2)` times the inverse of the weighted Gauss-Newton matrix. The standard errors
-//! are scaled by `sqrt(nu / (nu - 2))` accordingly ([`FrfRefinement::uncertainty`]);
-//! with 2 or 3 averages that factor is infinite and a [`FrfRefineWarning::FewAverages`]
-//! is raised instead (standard errors unscaled, too small). The efficiency lost to the
+//! `observations - unknowns`, its variance `4 E[1/u^2] - 2 E[1/u]^2` times that (each
+//! complex value's term is `chi2(2) / u`; the variance is 2 for exact variances), and the
+//! estimate's covariance is `E[1/u^2] / E[1/u] = nu / (nu - 2)` times the inverse of the
+//! weighted Gauss-Newton matrix, `E[1/u^2] = nu^2 / ((nu - 1) (nu - 2))`. The standard
+//! errors are scaled by `sqrt(nu / (nu - 2))` accordingly ([`FrfRefinement::uncertainty`]);
+//! with 2 or 3 averages that factor and the cost's variance are infinite (with 2 its
+//! expectation too): a [`FrfRefineWarning::FewAverages`] is raised instead (standard
+//! errors unscaled, too small) and the cost is not tested. The efficiency lost to the
 //! noisy weights is `(nu - 1) / (nu - 2)` in variance (14 % with 10 averages). With
 //! [`FrfNoise::CoherenceScaled`] the number of averages is unknown: the estimated scale
 //! absorbs `E[1/u]`, but the standard errors stay too small by that last factor in
@@ -414,11 +417,13 @@ pub enum FrfRefineWarning {
         /// Why it stopped.
         stop: StopReason,
     },
-    /// With given noise (coherence and averages, or known variances), the final cost is
-    /// far above its expectation (more than 5 of its standard deviations, taken as
-    /// `sqrt(2 expected)`): the model misses something (a mode, a residual term,
-    /// nonlinearity) or the variances are too small; the standard errors are then too
-    /// small too.
+    /// With given noise (coherence and at least 4 averages, or known variances), the final
+    /// cost is far above its expectation (more than 5 of its standard deviations, `sqrt(2
+    /// (observations - unknowns))` for known variances, `sqrt((observations - unknowns) (4
+    /// E[1/u^2] - 2 E[1/u]^2))` for variances from the coherence, see the module docs): the
+    /// model misses something (a mode, a residual term, nonlinearity) or the variances are
+    /// too small; the standard errors are then too small too. Not tested with 2 or 3
+    /// averages, where the cost's variance is infinite.
     CostAboveExpectation {
         /// Final cost.
         cost: f64,
@@ -1109,19 +1114,24 @@ impl FrfRefiner {
         )
         .map_err(|_| RefineError::NonFiniteModel)?;
         let mut warnings = start.warnings.clone();
-        // Noisy weights (variances from the coherence): covariance nu / (nu - 2) times,
-        // cost expectation nu / (nu - 1) times (see the module docs).
-        let (inflation, cost_factor) = match noise.source {
+        // Noisy weights (variances from the coherence): covariance nu / (nu - 2) times; per
+        // real observation the cost has mean E[1/u] = nu / (nu - 1) and variance 4 E[1/u^2] -
+        // 2 E[1/u]^2, E[1/u^2] = nu^2 / ((nu - 1) (nu - 2)) (see the module docs). With fewer
+        // than 4 averages that variance is infinite: no cost test.
+        let (inflation, cost_moments) = match noise.source {
             NoiseSource::Coherence { averages } => {
                 let nu = (averages - 1) as f64;
                 if averages >= 4 {
-                    (nu / (nu - 2.0), nu / (nu - 1.0))
+                    let m1 = nu / (nu - 1.0);
+                    let m2 = nu * nu / ((nu - 1.0) * (nu - 2.0));
+                    (nu / (nu - 2.0), Some((m1, 4.0 * m2 - 2.0 * m1 * m1)))
                 } else {
                     warnings.push(FrfRefineWarning::FewAverages { averages });
-                    (1.0, nu / (nu - 1.0).max(1.0))
+                    (1.0, None)
                 }
             }
-            _ => (1.0, 1.0),
+            _ if estimated => (1.0, None),
+            _ => (1.0, Some((1.0, 2.0))),
         };
         let uncertainty =
             uncertainty::uncertainty(&problem.params, &model, &outcome.point.fisher / inflation)?;
@@ -1132,9 +1142,12 @@ impl FrfRefiner {
             warnings.push(FrfRefineWarning::NotConverged { stop: outcome.stop });
         }
         let cost = outcome.point.cost;
-        let expected = (observations - unknowns) as f64 * cost_factor;
-        if !estimated && cost > expected + 5.0 * (2.0 * expected).sqrt() {
-            warnings.push(FrfRefineWarning::CostAboveExpectation { cost, expected });
+        if let Some((mean, variance)) = cost_moments {
+            let dof = (observations - unknowns) as f64;
+            let expected = dof * mean;
+            if cost > expected + 5.0 * (dof * variance).sqrt() {
+                warnings.push(FrfRefineWarning::CostAboveExpectation { cost, expected });
+            }
         }
         if uncertainty.modes.len() < n {
             warnings.push(FrfRefineWarning::OverdampedModes {

@@ -854,3 +854,73 @@ fn coherence_without_averages_estimates_one_scale() {
     // mean, 4 of those 0.12. Measured 0.1692 (1.5 % above 1/6).
     assert!((scale * 6.0 - 1.0).abs() < 0.12, "{scale}");
 }
+
+#[test]
+fn the_cost_test_does_not_warn_on_a_right_model_with_few_averages() {
+    // H1 estimates of 2, 3 and 4 averages of the exact 2-DOF FRFs (noise as
+    // in the Monte Carlo test above): model and variances are right, so
+    // `CostAboveExpectation` ("more than 5 standard deviations above the
+    // expectation") must not fire. Per complex value the cost is chi2(2) /
+    // u, u ~ chi2(2 nu) / (2 nu): its mean 2 E[1/u] is infinite for nu = 1
+    // and its variance 8 E[1/u^2] - 4 E[1/u]^2 infinite for nu = 2, and for
+    // nu = 3 it is 27 per complex value, not the 2 * 3 = 6 of
+    // `sqrt(2 expected)`. The old test warned on 20 of 20 refinements with 2
+    // averages, 10 of 100 with 3 and 5 of 300 with 4 (measured).
+    let system = two_dof();
+    let clean = frf_of(&system, &[0], FrfQuantity::Accelerance, 1.0 / 32.0);
+    let floor = 0.002 * rms(&clean);
+    let start = FrfStart::new(
+        SecondOrder::new(system.0.clone(), system.1.clone(), system.2.clone()),
+        vec![0],
+    );
+    let refiner = FrfRefiner::default().band_hz(0.5, 25.0);
+    for (averages, replicates) in [(2usize, 20u64), (3, 100), (4, 300)] {
+        let noise = |k: usize, i: usize, l: usize| {
+            averages as f64 * ((0.02 * 0.02) * clean.values[k][(i, l)].norm_sqr() + floor * floor)
+        };
+        let mut warned = 0;
+        let mut largest: f64 = 0.0;
+        for seed in 0..replicates {
+            let mut rng = ChaCha8Rng::seed_from_u64(7000 + seed);
+            let frf = h1_estimate(&clean, &noise, averages, &mut rng);
+            let refined = refiner.refine(&frf, &start).unwrap();
+            largest = largest.max(refined.cost / (refined.observations - refined.unknowns) as f64);
+            if refined
+                .warnings
+                .iter()
+                .any(|w| matches!(w, FrfRefineWarning::CostAboveExpectation { .. }))
+            {
+                warned += 1;
+            }
+        }
+        println!(
+            "{averages} averages: {warned} of {replicates} warned, largest cost / (observations - unknowns) {largest:.3}"
+        );
+        // Right model, right variances: no warning in any replicate. With 4
+        // averages the test is at 5 standard deviations, sqrt(13.5 / 3129) =
+        // 0.066 of the ratio cost / (observations - unknowns), i.e. at 1.83
+        // (expectation 1.5); the largest of the 300 ratios is 1.715 (3.3
+        // standard deviations), 2.62 and 18.2 with 3 and 2 averages, which
+        // are not tested.
+        assert_eq!(warned, 0, "{averages} averages");
+    }
+    // The test still fires when the variances are too small: 4 averages
+    // declared as 16 make every variance 5 times too small (1 / (n_d - 1)),
+    // the cost about 5 times its expectation.
+    let averages = 4;
+    let noise = |k: usize, i: usize, l: usize| {
+        averages as f64 * ((0.02 * 0.02) * clean.values[k][(i, l)].norm_sqr() + floor * floor)
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(7000);
+    let mut frf = h1_estimate(&clean, &noise, averages, &mut rng);
+    frf.averages = Some(16);
+    let refined = refiner.refine(&frf, &start).unwrap();
+    assert!(
+        refined
+            .warnings
+            .iter()
+            .any(|w| matches!(w, FrfRefineWarning::CostAboveExpectation { .. })),
+        "{:?}",
+        refined.warnings
+    );
+}
