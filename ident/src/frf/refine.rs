@@ -539,6 +539,20 @@ pub enum FrfRefineError {
         /// The band.
         band_hz: (f64, f64),
     },
+    /// The FRF of a response/reference pair is exactly 0 on every line of the band (a
+    /// disconnected or unconnected channel): no model with positive definite M and K has
+    /// such a response.
+    #[error(
+        "the FRF of output {output} to reference {reference} (0-based) is exactly 0 on every line of the band {band_hz:?} Hz"
+    )]
+    ZeroFrf {
+        /// Output (0-based row of the FRFs).
+        output: usize,
+        /// Reference (0-based column of the FRFs).
+        reference: usize,
+        /// The band.
+        band_hz: (f64, f64),
+    },
     /// The noise model needs what the FRFs do not carry.
     #[error("noise model {model}: {reason}")]
     Noise {
@@ -1293,6 +1307,20 @@ impl FrfRefiner {
                 unknowns: params.len(),
                 band_hz: (lo, hi),
             });
+        }
+        for l in 0..r {
+            for i in 0..m {
+                if lines
+                    .iter()
+                    .all(|line| frf.values[line.index][(i, l)] == C64::new(0.0, 0.0))
+                {
+                    return Err(FrfRefineError::ZeroFrf {
+                        output: i,
+                        reference: l,
+                        band_hz: (lines[0].frequency_hz, lines[lines.len() - 1].frequency_hz),
+                    });
+                }
+            }
         }
         let rms = DMatrix::from_fn(n, r, |i, l| {
             (data.iter().map(|h| h[(i, l)].norm_sqr()).sum::<f64>() / data.len() as f64).sqrt()

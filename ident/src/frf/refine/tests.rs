@@ -924,3 +924,63 @@ fn the_cost_test_does_not_warn_on_a_right_model_with_few_averages() {
         refined.warnings
     );
 }
+
+#[test]
+fn an_frf_that_is_zero_on_the_whole_band_is_a_typed_error() {
+    // A disconnected channel: every value of a pair exactly 0. Before, the
+    // refinement "converged" to an arbitrary model with an overdamped-mode
+    // warning (all pairs zero) or failed as not identifiable, not naming the
+    // channel.
+    let system = two_dof();
+    let clean = frf_of(&system, &[0], FrfQuantity::Accelerance, 1.0 / 8.0);
+    let start = FrfStart::new(
+        SecondOrder::new(system.0.clone(), system.1.clone(), system.2.clone()),
+        vec![0],
+    );
+    let refiner = FrfRefiner::default();
+    let mut zero = clean.clone();
+    zero.values
+        .iter_mut()
+        .for_each(|h| h.fill(C64::new(0.0, 0.0)));
+    assert!(matches!(
+        refiner.refine(&zero, &start),
+        Err(FrfRefineError::ZeroFrf {
+            output: 0,
+            reference: 0,
+            ..
+        })
+    ));
+    let mut second = clean.clone();
+    second
+        .values
+        .iter_mut()
+        .for_each(|h| h[(1, 0)] = C64::new(0.0, 0.0));
+    // Also with coherence (which made the weights of the zero values 0).
+    second.coherence = Some(vec![DMatrix::from_element(2, 1, 0.9); clean.lines()]);
+    second.averages = Some(10);
+    let err = refiner.refine(&second, &start).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            FrfRefineError::ZeroFrf {
+                output: 1,
+                reference: 0,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    println!("{err}");
+    // Zero at 0 Hz (not used) and one zero value in the band are no
+    // problem (noisy data: on exact data the estimated variance of output 1
+    // would be that one value's error alone).
+    let mut dc = clean.clone();
+    add_noise(
+        &mut dc,
+        0.01 * rms(&clean),
+        &mut ChaCha8Rng::seed_from_u64(1),
+    );
+    dc.values[0].fill(C64::new(0.0, 0.0));
+    dc.values[1][(1, 0)] = C64::new(0.0, 0.0);
+    refiner.refine(&dc, &start).unwrap();
+}
