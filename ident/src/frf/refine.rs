@@ -1256,8 +1256,27 @@ impl FrfRefiner {
                     ),
                 });
             }
+            let finite = |z: &C64| z.re.is_finite() && z.im.is_finite();
+            if !(finite(&md.pole) && md.residue.iter().all(finite)) {
+                return Err(FrfRefineError::InvalidParams {
+                    field: "FrfStart::subtracted_modes",
+                    reason: format!(
+                        "subtracted mode {j} (pole {} rad/s) has a non-finite pole or residue",
+                        md.pole
+                    ),
+                });
+            }
         }
         let params = self.parametrization.parameters(n)?;
+        if self.band_hz.is_none()
+            && let Some((lo, hi)) = start.band_hz
+            && !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi > lo)
+        {
+            return Err(FrfRefineError::InvalidParams {
+                field: "FrfStart::band_hz",
+                reason: format!("({lo}, {hi}) Hz is not a band: need 0 <= f_min < f_max"),
+            });
+        }
         let f = &frf.frequency_hz;
         let (lo, hi) = self
             .band_hz
@@ -1287,9 +1306,19 @@ impl FrfRefiner {
             } else {
                 frf.values[k].clone()
             };
-            for md in &start.subtracted_modes {
+            for (j, md) in start.subtracted_modes.iter().enumerate() {
                 let (a, b) = (1.0 / (iw - md.pole), 1.0 / (iw - md.pole.conj()));
-                h -= md.residue.map(|x| x * a + x.conj() * b);
+                let term = md.residue.map(|x| x * a + x.conj() * b);
+                if term.iter().any(|z| !(z.re.is_finite() && z.im.is_finite())) {
+                    return Err(FrfRefineError::InvalidParams {
+                        field: "FrfStart::subtracted_modes",
+                        reason: format!(
+                            "subtracted mode {j} (pole {} rad/s) is not finite at {fk} Hz",
+                            md.pole
+                        ),
+                    });
+                }
+                h -= term;
             }
             lines.push(Line {
                 index: k,

@@ -984,3 +984,64 @@ fn an_frf_that_is_zero_on_the_whole_band_is_a_typed_error() {
     dc.values[1][(1, 0)] = C64::new(0.0, 0.0);
     refiner.refine(&dc, &start).unwrap();
 }
+
+#[test]
+fn a_start_that_is_not_finite_is_refused_naming_the_field() {
+    let system = two_dof();
+    let clean = frf_of(&system, &[0], FrfQuantity::Accelerance, 1.0 / 8.0);
+    let start = FrfStart::new(
+        SecondOrder::new(system.0.clone(), system.1.clone(), system.2.clone()),
+        vec![0],
+    );
+    let refiner = FrfRefiner::default();
+    // The start's band, used when the refiner has none: a NaN end used to
+    // be ignored silently (every line up to the other end was used).
+    for band in [
+        (f64::NAN, 10.0),
+        (2.0, f64::INFINITY),
+        (-1.0, 10.0),
+        (8.0, 3.0),
+    ] {
+        let mut s = start.clone();
+        s.band_hz = Some(band);
+        let err = refiner.refine(&clean, &s).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                FrfRefineError::InvalidParams {
+                    field: "FrfStart::band_hz",
+                    ..
+                }
+            ),
+            "{band:?}: {err:?}"
+        );
+    }
+    // Subtracted modes: a non-finite pole or residue, or an undamped pole
+    // on a line, used to be reported as "the start model has no finite FRF
+    // at 0.125 Hz" (the first line), which is not what is wrong.
+    let residue = DMatrix::from_element(2, 1, C64::new(1.0, 0.0));
+    let on_line = C64::new(0.0, 2.0 * PI * 5.0);
+    for (pole, residue) in [
+        (C64::new(f64::NAN, 10.0), residue.clone()),
+        (
+            C64::new(-1.0, 30.0),
+            residue.map(|_| C64::new(f64::INFINITY, 0.0)),
+        ),
+        (on_line, residue.clone()),
+    ] {
+        let mut s = start.clone();
+        s.subtracted_modes.push(SubtractedMode { pole, residue });
+        let err = refiner.refine(&clean, &s).unwrap_err();
+        println!("{err}");
+        assert!(
+            matches!(
+                err,
+                FrfRefineError::InvalidParams {
+                    field: "FrfStart::subtracted_modes",
+                    ..
+                }
+            ),
+            "{pole}: {err:?}"
+        );
+    }
+}
