@@ -1333,7 +1333,7 @@ impl FrfRefiner {
             return Err(FrfRefineError::TooFewLines {
                 lines: 0,
                 observations: 0,
-                unknowns: params.len(),
+                unknowns: params.len() + powers.len() * m * r,
                 band_hz: (lo, hi),
             });
         }

@@ -1045,3 +1045,33 @@ fn a_start_that_is_not_finite_is_refused_naming_the_field() {
         );
     }
 }
+
+#[test]
+fn too_few_lines_counts_the_residual_coefficients_also_without_lines() {
+    // The error's `unknowns` is documented as physical parameters plus
+    // residual coefficients; with no line in the band it left the residual
+    // coefficients out (9 instead of 9 + 2 for the default upper residual
+    // of 2 outputs x 1 reference).
+    let system = two_dof();
+    let clean = frf_of(&system, &[0], FrfQuantity::Accelerance, 1.0 / 8.0);
+    let start = FrfStart::new(
+        SecondOrder::new(system.0.clone(), system.1.clone(), system.2.clone()),
+        vec![0],
+    );
+    let err = FrfRefiner::default()
+        .band_hz(100.0, 200.0)
+        .refine(&clean, &start)
+        .unwrap_err();
+    assert!(
+        matches!(
+            err,
+            FrfRefineError::TooFewLines {
+                lines: 0,
+                observations: 0,
+                unknowns: 11,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+}
