@@ -447,6 +447,18 @@ pub enum FrfRefineWarning {
         /// `|B2[dof, l]| / ||B2[:, l]||` of the estimated input matrix (1 when exact).
         dominance: f64,
     },
+    /// A refined mode has a negative damping ratio: a pole in the right half-plane, an
+    /// unstable model, which no passive structure is. Usually a lightly damped mode whose
+    /// damping the data do not determine to its sign (the damping ratio within a few
+    /// standard errors of 0); the model is then no use for simulation. One per such mode.
+    NegativeDamping {
+        /// Mode (0-based, ascending frequency, as in [`Uncertainty::modes`]).
+        mode: usize,
+        /// Its damping ratio (negative).
+        damping_ratio: f64,
+        /// Its standard error.
+        damping_ratio_std: f64,
+    },
     /// The refined model has fewer oscillatory modes than DOFs (an overdamped pair of
     /// real poles): from a poor start, a local minimum.
     OverdampedModes {
@@ -1168,6 +1180,15 @@ impl FrfRefiner {
                 oscillatory: uncertainty.modes.len(),
                 dofs: n,
             });
+        }
+        for (mode, md) in uncertainty.modes.iter().enumerate() {
+            if md.damping_ratio < 0.0 {
+                warnings.push(FrfRefineWarning::NegativeDamping {
+                    mode,
+                    damping_ratio: md.damping_ratio,
+                    damping_ratio_std: md.damping_ratio_std,
+                });
+            }
         }
         let xi = &outcome.point.extra.xi;
         let residual_terms = (0..nt)
