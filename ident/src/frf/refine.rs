@@ -97,11 +97,14 @@
 //! `u ~ chi2(2 nu) / (2 nu)` independent of `Ĥ`. Weighting with such variances keeps the
 //! estimate unbiased, but over many lines (first order, the usual sandwich with
 //! independent `u` per value) the cost's expectation is `E[1/u] = nu / (nu - 1)` times
-//! `observations - unknowns`, and the estimate's covariance is `E[1/u^2] / E[1/u] = nu /
-//! (nu - 2)` times the inverse of the weighted Gauss-Newton matrix. The standard errors
-//! are scaled by `sqrt(nu / (nu - 2))` accordingly ([`FrfRefinement::uncertainty`]);
-//! with 2 or 3 averages that factor is infinite and a [`FrfRefineWarning::FewAverages`]
-//! is raised instead (standard errors unscaled, too small). The efficiency lost to the
+//! `observations - unknowns`, its variance `4 E[1/u^2] - 2 E[1/u]^2` times that (each
+//! complex value's term is `chi2(2) / u`; the variance is 2 for exact variances), and the
+//! estimate's covariance is `E[1/u^2] / E[1/u] = nu / (nu - 2)` times the inverse of the
+//! weighted Gauss-Newton matrix, `E[1/u^2] = nu^2 / ((nu - 1) (nu - 2))`. The standard
+//! errors are scaled by `sqrt(nu / (nu - 2))` accordingly ([`FrfRefinement::uncertainty`]);
+//! with 2 or 3 averages that factor and the cost's variance are infinite (with 2 its
+//! expectation too): a [`FrfRefineWarning::FewAverages`] is raised instead (standard
+//! errors unscaled, too small) and the cost is not tested. The efficiency lost to the
 //! noisy weights is `(nu - 1) / (nu - 2)` in variance (14 % with 10 averages). With
 //! [`FrfNoise::CoherenceScaled`] the number of averages is unknown: the estimated scale
 //! absorbs `E[1/u]`, but the standard errors stay too small by that last factor in
@@ -414,11 +417,13 @@ pub enum FrfRefineWarning {
         /// Why it stopped.
         stop: StopReason,
     },
-    /// With given noise (coherence and averages, or known variances), the final cost is
-    /// far above its expectation (more than 5 of its standard deviations, taken as
-    /// `sqrt(2 expected)`): the model misses something (a mode, a residual term,
-    /// nonlinearity) or the variances are too small; the standard errors are then too
-    /// small too.
+    /// With given noise (coherence and at least 4 averages, or known variances), the final
+    /// cost is far above its expectation (more than 5 of its standard deviations, `sqrt(2
+    /// (observations - unknowns))` for known variances, `sqrt((observations - unknowns) (4
+    /// E[1/u^2] - 2 E[1/u]^2))` for variances from the coherence, see the module docs): the
+    /// model misses something (a mode, a residual term, nonlinearity) or the variances are
+    /// too small; the standard errors are then too small too. Not tested with 2 or 3
+    /// averages, where the cost's variance is infinite.
     CostAboveExpectation {
         /// Final cost.
         cost: f64,
@@ -441,6 +446,18 @@ pub enum FrfRefineWarning {
         dof: usize,
         /// `|B2[dof, l]| / ||B2[:, l]||` of the estimated input matrix (1 when exact).
         dominance: f64,
+    },
+    /// A refined mode has a negative damping ratio: a pole in the right half-plane, an
+    /// unstable model, which no passive structure is. Usually a lightly damped mode whose
+    /// damping the data do not determine to its sign (the damping ratio within a few
+    /// standard errors of 0); the model is then no use for simulation. One per such mode.
+    NegativeDamping {
+        /// Mode (0-based, ascending frequency, as in [`Uncertainty::modes`]).
+        mode: usize,
+        /// Its damping ratio (negative).
+        damping_ratio: f64,
+        /// Its standard error.
+        damping_ratio_std: f64,
     },
     /// The refined model has fewer oscillatory modes than DOFs (an overdamped pair of
     /// real poles): from a poor start, a local minimum.
@@ -531,6 +548,20 @@ pub enum FrfRefineError {
         observations: usize,
         /// Physical parameters plus residual coefficients.
         unknowns: usize,
+        /// The band.
+        band_hz: (f64, f64),
+    },
+    /// The FRF of a response/reference pair is exactly 0 on every line of the band (a
+    /// disconnected or unconnected channel): no model with positive definite M and K has
+    /// such a response.
+    #[error(
+        "the FRF of output {output} to reference {reference} (0-based) is exactly 0 on every line of the band {band_hz:?} Hz"
+    )]
+    ZeroFrf {
+        /// Output (0-based row of the FRFs).
+        output: usize,
+        /// Reference (0-based column of the FRFs).
+        reference: usize,
         /// The band.
         band_hz: (f64, f64),
     },
@@ -1109,19 +1140,24 @@ impl FrfRefiner {
         )
         .map_err(|_| RefineError::NonFiniteModel)?;
         let mut warnings = start.warnings.clone();
-        // Noisy weights (variances from the coherence): covariance nu / (nu - 2) times,
-        // cost expectation nu / (nu - 1) times (see the module docs).
-        let (inflation, cost_factor) = match noise.source {
+        // Noisy weights (variances from the coherence): covariance nu / (nu - 2) times; per
+        // real observation the cost has mean E[1/u] = nu / (nu - 1) and variance 4 E[1/u^2] -
+        // 2 E[1/u]^2, E[1/u^2] = nu^2 / ((nu - 1) (nu - 2)) (see the module docs). With fewer
+        // than 4 averages that variance is infinite: no cost test.
+        let (inflation, cost_moments) = match noise.source {
             NoiseSource::Coherence { averages } => {
                 let nu = (averages - 1) as f64;
                 if averages >= 4 {
-                    (nu / (nu - 2.0), nu / (nu - 1.0))
+                    let m1 = nu / (nu - 1.0);
+                    let m2 = nu * nu / ((nu - 1.0) * (nu - 2.0));
+                    (nu / (nu - 2.0), Some((m1, 4.0 * m2 - 2.0 * m1 * m1)))
                 } else {
                     warnings.push(FrfRefineWarning::FewAverages { averages });
-                    (1.0, nu / (nu - 1.0).max(1.0))
+                    (1.0, None)
                 }
             }
-            _ => (1.0, 1.0),
+            _ if estimated => (1.0, None),
+            _ => (1.0, Some((1.0, 2.0))),
         };
         let uncertainty =
             uncertainty::uncertainty(&problem.params, &model, &outcome.point.fisher / inflation)?;
@@ -1132,15 +1168,27 @@ impl FrfRefiner {
             warnings.push(FrfRefineWarning::NotConverged { stop: outcome.stop });
         }
         let cost = outcome.point.cost;
-        let expected = (observations - unknowns) as f64 * cost_factor;
-        if !estimated && cost > expected + 5.0 * (2.0 * expected).sqrt() {
-            warnings.push(FrfRefineWarning::CostAboveExpectation { cost, expected });
+        if let Some((mean, variance)) = cost_moments {
+            let dof = (observations - unknowns) as f64;
+            let expected = dof * mean;
+            if cost > expected + 5.0 * (dof * variance).sqrt() {
+                warnings.push(FrfRefineWarning::CostAboveExpectation { cost, expected });
+            }
         }
         if uncertainty.modes.len() < n {
             warnings.push(FrfRefineWarning::OverdampedModes {
                 oscillatory: uncertainty.modes.len(),
                 dofs: n,
             });
+        }
+        for (mode, md) in uncertainty.modes.iter().enumerate() {
+            if md.damping_ratio < 0.0 {
+                warnings.push(FrfRefineWarning::NegativeDamping {
+                    mode,
+                    damping_ratio: md.damping_ratio,
+                    damping_ratio_std: md.damping_ratio_std,
+                });
+            }
         }
         let xi = &outcome.point.extra.xi;
         let residual_terms = (0..nt)
@@ -1229,8 +1277,27 @@ impl FrfRefiner {
                     ),
                 });
             }
+            let finite = |z: &C64| z.re.is_finite() && z.im.is_finite();
+            if !(finite(&md.pole) && md.residue.iter().all(finite)) {
+                return Err(FrfRefineError::InvalidParams {
+                    field: "FrfStart::subtracted_modes",
+                    reason: format!(
+                        "subtracted mode {j} (pole {} rad/s) has a non-finite pole or residue",
+                        md.pole
+                    ),
+                });
+            }
         }
         let params = self.parametrization.parameters(n)?;
+        if self.band_hz.is_none()
+            && let Some((lo, hi)) = start.band_hz
+            && !(lo.is_finite() && hi.is_finite() && lo >= 0.0 && hi > lo)
+        {
+            return Err(FrfRefineError::InvalidParams {
+                field: "FrfStart::band_hz",
+                reason: format!("({lo}, {hi}) Hz is not a band: need 0 <= f_min < f_max"),
+            });
+        }
         let f = &frf.frequency_hz;
         let (lo, hi) = self
             .band_hz
@@ -1260,9 +1327,19 @@ impl FrfRefiner {
             } else {
                 frf.values[k].clone()
             };
-            for md in &start.subtracted_modes {
+            for (j, md) in start.subtracted_modes.iter().enumerate() {
                 let (a, b) = (1.0 / (iw - md.pole), 1.0 / (iw - md.pole.conj()));
-                h -= md.residue.map(|x| x * a + x.conj() * b);
+                let term = md.residue.map(|x| x * a + x.conj() * b);
+                if term.iter().any(|z| !(z.re.is_finite() && z.im.is_finite())) {
+                    return Err(FrfRefineError::InvalidParams {
+                        field: "FrfStart::subtracted_modes",
+                        reason: format!(
+                            "subtracted mode {j} (pole {} rad/s) is not finite at {fk} Hz",
+                            md.pole
+                        ),
+                    });
+                }
+                h -= term;
             }
             lines.push(Line {
                 index: k,
@@ -1277,9 +1354,23 @@ impl FrfRefiner {
             return Err(FrfRefineError::TooFewLines {
                 lines: 0,
                 observations: 0,
-                unknowns: params.len(),
+                unknowns: params.len() + powers.len() * m * r,
                 band_hz: (lo, hi),
             });
+        }
+        for l in 0..r {
+            for i in 0..m {
+                if lines
+                    .iter()
+                    .all(|line| frf.values[line.index][(i, l)] == C64::new(0.0, 0.0))
+                {
+                    return Err(FrfRefineError::ZeroFrf {
+                        output: i,
+                        reference: l,
+                        band_hz: (lines[0].frequency_hz, lines[lines.len() - 1].frequency_hz),
+                    });
+                }
+            }
         }
         let rms = DMatrix::from_fn(n, r, |i, l| {
             (data.iter().map(|h| h[(i, l)].norm_sqr()).sum::<f64>() / data.len() as f64).sqrt()
