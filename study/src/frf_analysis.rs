@@ -241,6 +241,19 @@ fn refine_warning(w: &FrfRefineWarning) -> String {
             dof + 1,
             sig(*dominance, 3)
         ),
+        FrfRefineWarning::NegativeDamping {
+            mode,
+            damping_ratio,
+            damping_ratio_std,
+        } => format!(
+            "refined mode {} has a negative damping ratio {} (standard error {}): an unstable model, no use for simulation; the data do not determine that mode's damping to its sign",
+            mode + 1,
+            sig(*damping_ratio, 3),
+            sig(*damping_ratio_std, 2)
+        ),
+        FrfRefineWarning::OverdampedModes { oscillatory, dofs } => format!(
+            "the refined model has {oscillatory} oscillatory modes for {dofs} floors (an overdamped pair of poles): a local minimum from a poor start"
+        ),
         other => format!("{other:?}"),
     }
 }
@@ -309,6 +322,38 @@ mod tests {
     use ident::frf::FrfQuantity;
     use nalgebra::DMatrix;
     use num_complex::Complex64 as C;
+
+    #[test]
+    fn refinement_warnings_are_worded_for_the_user() {
+        // Each variant the refinement raises has its own wording, not its debug form
+        // (`NegativeDamping { mode: ... }` reached the command line before).
+        let ws = [
+            FrfRefineWarning::NegativeDamping {
+                mode: 1,
+                damping_ratio: -2e-4,
+                damping_ratio_std: 3e-4,
+            },
+            FrfRefineWarning::OverdampedModes {
+                oscillatory: 2,
+                dofs: 3,
+            },
+            FrfRefineWarning::FewAverages { averages: 3 },
+        ];
+        let texts: Vec<String> = ws.iter().map(refine_warning).collect();
+        for t in &texts {
+            assert!(!t.contains('{') && !t.contains("Damping {"), "{t}");
+        }
+        assert!(
+            texts[0].starts_with("refined mode 2 has a negative damping ratio -2.00e-4"),
+            "{}",
+            texts[0]
+        );
+        assert!(
+            texts[1].contains("2 oscillatory modes for 3 floors"),
+            "{}",
+            texts[1]
+        );
+    }
 
     /// Two outputs, two references at the outputs' points; `H_10` scaled
     /// by `1 + e` against `H_01`.
