@@ -79,8 +79,9 @@
 //! The first run weighs the bins by the residuals of the initial guess (mostly model error,
 //! largest near the resonances, so the resonances are down-weighted): a relative-error fit
 //! whose cost is much smoother than an absolute fit of sharp peaks at slightly wrong
-//! frequencies (on every other bin, [`FIRST_RUN_BIN_STRIDE`]). From M and K entries 2 % off
-//! (first frequency up to 7 % off) and damping x3, all 300 trials of the efficiency test (1 % noise) converged, and the 20 also refined
+//! frequencies (on every other bin, `FIRST_RUN_BIN_STRIDE`). From M and K entries 2 % off
+//! (first frequency up to 7 % off) and damping x3, all 300 trials of the efficiency test (1 %
+//! noise) converged, and the 20 also refined
 //! from MKR's start reached the same optimum. Then the noise levels (estimated or given)
 //! take over, with tight tolerances in the last run. A model with an overdamped mode has
 //! fewer oscillatory modes than DOFs: a refinement that ends so from a poor start has
