@@ -694,6 +694,13 @@ pub fn analyze_located(
         Some(p) => Some(refine(p, &c, &result, id)?),
         None => None,
     };
+    if let Some(r) = &refinement {
+        warnings.extend(refinement_warnings(
+            r.stop,
+            &r.uncertainty.modes,
+            r.mass.nrows(),
+        ));
+    }
     Ok(Analysis {
         campaign: c,
         decimation,
@@ -982,6 +989,44 @@ fn residual_flags(
         }
     }
     flags
+}
+
+/// What a refinement's result says that its numbers alone do not: an
+/// optimizer that stopped without converging (the estimates are not the
+/// maximum-likelihood ones), fewer oscillatory modes than floors (an
+/// overdamped pair of poles: from a poor start, a local minimum) and a
+/// negative damping ratio (a pole in the right half-plane, an unstable model
+/// no passive structure has: that mode's damping is not determined to its
+/// sign). The FRF route's refinement warns of the last two alike.
+fn refinement_warnings(
+    stop: ident::refine::StopReason,
+    modes: &[ident::refine::ModalEstimate],
+    floors: usize,
+) -> Vec<String> {
+    let mut out = Vec::new();
+    if !stop.converged() {
+        out.push(format!(
+            "--refine: the optimizer stopped without converging ({stop:?}): the refined M, K and damping are not the maximum-likelihood estimates"
+        ));
+    }
+    if modes.len() < floors {
+        out.push(format!(
+            "--refine: the refined model has {} oscillatory modes for {floors} floors (an overdamped pair of poles): a local minimum from a poor start",
+            modes.len()
+        ));
+    }
+    for (j, m) in modes.iter().enumerate() {
+        if m.damping_ratio < 0.0 {
+            out.push(format!(
+                "--refine: refined mode {} ({} Hz) has a negative damping ratio {} (standard error {}): an unstable model, no use for simulation; the data do not determine that mode's damping to its sign",
+                j + 1,
+                records::numfmt::sig(m.frequency_hz, 4),
+                records::numfmt::sig(m.damping_ratio, 3),
+                records::numfmt::sig(m.damping_ratio_std, 2)
+            ));
+        }
+    }
+    out
 }
 
 /// Maximum-likelihood M, K and damping from all hits, started from MKR's M
@@ -1562,4 +1607,49 @@ pub fn subtract_sensor_masses(
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ident::refine::{ModalEstimate, StopReason};
+    use nalgebra::DVector;
+
+    fn mode(frequency_hz: f64, damping_ratio: f64) -> ModalEstimate {
+        ModalEstimate {
+            frequency_hz,
+            frequency_std_hz: 1e-3,
+            damping_ratio,
+            damping_ratio_std: 3e-4,
+            pole: ident::linalg::C64::new(0.0, 1.0),
+            shape: DVector::zeros(2),
+            shape_std_re: DVector::zeros(2),
+            shape_std_im: DVector::zeros(2),
+        }
+    }
+
+    #[test]
+    fn a_refinement_that_is_no_maximum_likelihood_estimate_is_named() {
+        // Converged, two stable modes for two floors: nothing to say.
+        let good = [mode(2.7, 5e-3), mode(9.2, 2e-3)];
+        assert!(refinement_warnings(StopReason::Cost, &good, 2).is_empty());
+        // Not converged, one mode for two floors, that mode unstable: three warnings.
+        let w = refinement_warnings(StopReason::MaxIterations, &[mode(2.7, -2e-4)], 2);
+        assert_eq!(w.len(), 3, "{w:?}");
+        assert!(
+            w[0].contains("stopped without converging (MaxIterations)"),
+            "{}",
+            w[0]
+        );
+        assert!(
+            w[1].contains("1 oscillatory modes for 2 floors"),
+            "{}",
+            w[1]
+        );
+        assert!(
+            w[2].contains("refined mode 1 (2.700 Hz) has a negative damping ratio -2.00e-4"),
+            "{}",
+            w[2]
+        );
+    }
 }
