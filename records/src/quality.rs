@@ -1465,7 +1465,15 @@ fn baseline_line(
     let (m0, m1) = (mean(head), mean(tail));
     let var =
         |x: &[f64], m: f64| x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (x.len() - 1) as f64;
-    let se = (var(head, m0) / head.len() as f64 + var(tail, m1) / tail.len() as f64).sqrt();
+    // A segment without any noise (a constant pre-trigger of a digital or
+    // heavily quantized channel) has a standard error of 0, and the move or
+    // offset would be infinitely many of them (null in JSON). The smallest
+    // meaningful uncertainty is then the samples' round-off, eps times the
+    // peak: noisy records keep their bits, noise-free ones get a finite z.
+    let floor = f64::EPSILON * peak;
+    let se = (var(head, m0) / head.len() as f64 + var(tail, m1) / tail.len() as f64)
+        .sqrt()
+        .max(floor);
     let t0 = 0.5 * (head.len() - 1) as f64 * dt_s;
     let t1 = 0.5 * ((n - tail.len()) + (n - 1)) as f64 * dt_s;
     let per_s = (m1 - m0) / (t1 - t0);
@@ -1477,7 +1485,7 @@ fn baseline_line(
         f64::INFINITY
     };
     let fraction_of_peak = (m1 - m0).abs() / peak;
-    let se0 = (var(head, m0) / head.len() as f64).sqrt();
+    let se0 = (var(head, m0) / head.len() as f64).sqrt().max(floor);
     let offset_z = if se0 > 0.0 {
         m0.abs() / se0
     } else if m0 == 0.0 {
@@ -2020,6 +2028,36 @@ mod tests {
         };
         let q = assess_hit(&cut(0), dt_s, &names("force"), &names("acc"), &held);
         assert!(late(&q).is_none() && !q.fatal(), "{q:?}");
+    }
+
+    /// A channel whose pre-trigger and tail are exactly constant (no noise
+    /// at all) at different levels: its move and offset are flagged with
+    /// finite z values (they were infinite, null in the JSON), over the
+    /// samples' round-off.
+    #[test]
+    fn noise_free_baselines_give_finite_drift_statistics() {
+        let names = |s: &str| vec![s.to_string()];
+        let settings = QualitySettings::default();
+        let (mut hit, dt_s) = drifting_hit(0.0, 0.0);
+        let n = hit.len();
+        // Before the hit (sample 200) at 1/64, the second half at 3/64 (the response's
+        // peak is near 1): the pre-trigger segment and the tail (its last 10 %) are
+        // constants whose sums and means are exact, so their variances are exactly 0.
+        for k in 0..n {
+            if k < 200 {
+                hit.outputs[(0, k)] = 1.0 / 64.0;
+            } else if k >= n / 2 {
+                hit.outputs[(0, k)] = 3.0 / 64.0;
+            }
+        }
+        let q = assess_hit(&hit, dt_s, &names("force"), &names("acc"), &settings);
+        let d = q.channels[1].drift.unwrap();
+        assert!(d.significant, "{d:?}");
+        // A move of 3.9 % and an offset of 2.0 % of the peak (0.8) over eps times
+        // the peak: about 1e14.
+        assert!(d.z.is_finite() && d.z > 1e13, "{d:?}");
+        assert!(d.offset_z.is_finite() && d.offset_z > 1e13, "{d:?}");
+        assert!(q.flags.iter().any(|f| f.check == Check::Drift), "{q:?}");
     }
 
     /// A drift of 0.3 % of the peak per second (18 % of it over the
