@@ -757,6 +757,7 @@ impl FrfIdentifier {
                 consistency: mkr.consistency,
             });
         }
+        warnings.extend(crate::pipeline::weak_driving_point(&mkr, &chosen));
         let frequencies_hz: Vec<f64> = chosen.iter().map(|md| md.frequency_hz).collect();
         let damping_ratios: Vec<f64> = chosen.iter().map(|md| md.damping_ratio).collect();
         let rayleigh = Rayleigh::fit(&frequencies_hz, &damping_ratios)?;

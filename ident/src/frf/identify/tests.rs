@@ -851,10 +851,14 @@ fn exact_errors(
         "{what}: consistency {:e}",
         id.consistency
     );
+    // On exact data only warnings about the model or the set-up, not about the result: a
+    // Rayleigh fit of non-proportional damping, and a mode near a node of the driving
+    // point (whose results are exact here but would be noisy with noisy data).
     assert!(
-        id.warnings
-            .iter()
-            .all(|w| matches!(w, Warning::NegativeRayleigh { .. })),
+        id.warnings.iter().all(|w| matches!(
+            w,
+            Warning::NegativeRayleigh { .. } | Warning::WeakDrivingPoint { .. }
+        )),
         "{what}: {:?}",
         id.warnings
     );
