@@ -590,17 +590,13 @@ fn merge(py: Python<'_>, parts: Vec<Bound<'_, PyAny>>, out: Option<PathBuf>) -> 
                 }
             }
             let (first_name, first) = (&named[0].0, &named[0].1);
+            // The command line's checks and messages (version, plan, shard split).
             for (name, d) in named.iter().skip(1) {
-                if d.manifest.frameid_version != first.manifest.frameid_version {
-                    return Err(error(format!(
-                        "{name}: written by frameid {}, {first_name} by frameid {} (frameid_version): shards of different versions need not hold the same trials; run every shard with one version",
-                        d.manifest.frameid_version, first.manifest.frameid_version
-                    )));
-                }
-                if d.manifest.plan != first.manifest.plan {
-                    return Err(error(format!(
-                        "{name}: a different sweep than {first_name} (scenario, noise levels, trials, seed or axis differ)"
-                    )));
+                if let Some(problem) = lib::manifest_mismatch(
+                    (Path::new(name), &d.manifest),
+                    (Path::new(first_name), &first.manifest),
+                ) {
+                    return Err(error(problem));
                 }
             }
             let manifest = Manifest {
@@ -608,11 +604,8 @@ fn merge(py: Python<'_>, parts: Vec<Bound<'_, PyAny>>, out: Option<PathBuf>) -> 
                 ..first.manifest.clone()
             };
             let plan = manifest.plan.clone();
-            let rows = lib::join_rows(
-                &plan,
-                named.into_iter().map(|(n, d)| (n, d.rows)).collect(),
-            )
-            .map_err(lib_error)?;
+            let rows = lib::join_rows(&plan, named.into_iter().map(|(n, d)| (n, d.rows)).collect())
+                .map_err(lib_error)?;
             let truth = lib::plan_truth(&plan).map_err(lib_error)?;
             let summary = lib::summarize(&plan, &truth, &plan.score_keys(), &rows);
             let mut data = SweepData {

@@ -891,8 +891,10 @@ pub fn merge(dirs: &[&Path], out: &Path) -> Result<Merged, StudyError> {
 /// computes), another plan (the first field that differs, its path in
 /// `sweep.json` and both values) or another shard split. `None` if they can
 /// be merged. The scenario path is not compared: the same scenario may sit
-/// in different places on the machines that ran the shards.
-fn manifest_mismatch(
+/// in different places on the machines that ran the shards. (Public for
+/// the Python package's merge of shards held in memory, whose messages are
+/// the command line's.)
+pub fn manifest_mismatch(
     (dir, m): (&Path, &Manifest),
     (first_dir, first): (&Path, &Manifest),
 ) -> Option<String> {
