@@ -200,6 +200,10 @@ pub struct Mkr {
     pub w_squared: Vec<C64>,
     /// Driving-point feedthrough `D[k,l]` after any polarity flip (> 0 if physical).
     pub driving_point: f64,
+    /// Each mode's share of the driving point, `|W[k,j]^2 lambda_j|` over their sum (the
+    /// polarity vote's weights, see [`POLARITY_VOTE_SHARE`]); not finite when a residue
+    /// is not.
+    pub driving_point_shares: Vec<f64>,
 }
 
 impl MkrParams {
@@ -371,6 +375,7 @@ impl MkrParams {
             polarity_flipped: sign < 0.0,
             w_squared,
             driving_point: sign * d[(k, l)],
+            driving_point_shares: shares.iter().map(|v| v / total).collect(),
         })
     }
 }

@@ -68,27 +68,18 @@ pub const CONSISTENCY_WARNING: f64 = 0.1;
 pub const WEAK_DRIVING_POINT_SHARE: f64 = 0.01;
 
 /// [`Warning::WeakDrivingPoint`] for every mode of `modes` (those MKR used, `mkr` their fit)
-/// whose share of the driving point is below [`WEAK_DRIVING_POINT_SHARE`].
+/// whose share of the driving point ([`crate::mkr::Mkr::driving_point_shares`]) is below
+/// [`WEAK_DRIVING_POINT_SHARE`].
 pub(crate) fn weak_driving_point(mkr: &crate::mkr::Mkr, modes: &[Mode]) -> Vec<Warning> {
-    let shares: Vec<f64> = mkr
-        .w_squared
-        .iter()
-        .zip(modes)
-        .map(|(w2, md)| (w2 * md.pole).norm())
-        .collect();
-    let total: f64 = shares.iter().sum();
-    if !(total.is_finite() && total > 0.0) {
-        return Vec::new();
-    }
-    shares
+    mkr.driving_point_shares
         .iter()
         .zip(modes)
         .enumerate()
-        .filter(|(_, (share, _))| **share < WEAK_DRIVING_POINT_SHARE * total)
-        .map(|(j, (share, md))| Warning::WeakDrivingPoint {
+        .filter(|(_, (share, _))| **share < WEAK_DRIVING_POINT_SHARE)
+        .map(|(j, (&share, md))| Warning::WeakDrivingPoint {
             mode: j,
             frequency_hz: md.frequency_hz,
-            share: share / total,
+            share,
         })
         .collect()
 }

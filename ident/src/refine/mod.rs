@@ -372,7 +372,7 @@ const FISHER_HINT_DECREASE: f64 = 1e-2;
 /// campaigns (1 % noise) the refined parameters moved by at most 7.3e-4 of their standard
 /// deviations (the standard deviations by 1.7e-4 relative), the noise levels by 3.7e-5 (outputs)
 /// and 5.8e-4 (force) relative; the sequence of evaluations was otherwise the same but for one
-/// analyzer campaign (and 5 of 32 sweep trials) whose last run took one more evaluation with the
+/// analyzer campaign (and 7 of 32 sweep trials, against 2 before) whose last run took one more evaluation with the
 /// Jacobian. A fit of the noise levels on the subset's residuals instead (no extra evaluation)
 /// needed a fourth run in 12 of the 32 trials.
 const FIRST_RUN_BIN_STRIDE: usize = 2;
@@ -660,21 +660,8 @@ impl Problem {
     /// parameters with too few observations.
     fn subset(&self, stride: usize) -> Option<Problem> {
         let spectra = self.spectra.every(stride);
-        let (n, s) = (self.n, 2 * self.n);
-        for group in &spectra.groups {
-            let per_hit: usize = group
-                .bins
-                .iter()
-                .map(|b| if b.weight > 1.5 { 2 * n } else { n })
-                .sum();
-            if per_hit <= s {
-                return None;
-            }
-        }
-        let observations = likelihood::observations(&spectra, n);
-        if observations <= self.unknowns {
-            return None;
-        }
+        let n = self.n;
+        let observations = enough_bins(&spectra, n, self.unknowns).ok()?;
         Some(Problem {
             params: self.params.clone(),
             b2: self.b2.clone(),
@@ -803,30 +790,8 @@ impl Refiner {
             b2[(dof, l)] = 1.0;
         }
         let spectra = Spectra::new(records, dt_s, self.intersample, self.band_edge);
-        let s = 2 * n;
-        for (gi, group) in spectra.groups.iter().enumerate() {
-            let per_hit: usize = group
-                .bins
-                .iter()
-                .map(|b| if b.weight > 1.5 { 2 * n } else { n })
-                .sum();
-            if per_hit <= s {
-                return Err(RefineError::TooFewBins {
-                    hit: Some(spectra.groups[gi].hits[0]),
-                    observations: per_hit,
-                    unknowns: s,
-                });
-            }
-        }
-        let observations = likelihood::observations(&spectra, n);
-        let unknowns = params.len() + s * records.len();
-        if observations <= unknowns {
-            return Err(RefineError::TooFewBins {
-                hit: None,
-                observations,
-                unknowns,
-            });
-        }
+        let unknowns = params.len() + 2 * n * records.len();
+        let observations = enough_bins(&spectra, n, unknowns)?;
         Ok(Problem {
             params,
             b2,
@@ -1234,6 +1199,36 @@ thread_local! {
     pub(crate) static REEVALUATED_ENDS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
     /// [`FIRST_RUN_BIN_STRIDE`] in tests (1: the first run on every bin, as before it was not).
     pub(crate) static FIRST_RUN_STRIDE: std::cell::Cell<usize> = const { std::cell::Cell::new(FIRST_RUN_BIN_STRIDE) };
+}
+
+/// The observations of `spectra` (`n` outputs), if every hit has more than its `2 n`
+/// transient components and all of them more than `unknowns` (parameters and transients);
+/// else which is short.
+fn enough_bins(spectra: &Spectra, n: usize, unknowns: usize) -> Result<usize, RefineError> {
+    let s = 2 * n;
+    for group in &spectra.groups {
+        let per_hit: usize = group
+            .bins
+            .iter()
+            .map(|b| if b.weight > 1.5 { 2 * n } else { n })
+            .sum();
+        if per_hit <= s {
+            return Err(RefineError::TooFewBins {
+                hit: Some(group.hits[0]),
+                observations: per_hit,
+                unknowns: s,
+            });
+        }
+    }
+    let observations = likelihood::observations(spectra, n);
+    if observations <= unknowns {
+        return Err(RefineError::TooFewBins {
+            hit: None,
+            observations,
+            unknowns,
+        });
+    }
+    Ok(observations)
 }
 
 fn check_levels(levels: &NoiseLevels) -> Result<(), RefineError> {

@@ -42,6 +42,14 @@ fn frf_of(system: &System, references: &[usize], quantity: FrfQuantity, df: f64)
 }
 
 /// Parameters of `system` under `parametrization`, checked representable.
+/// The refinement started at the true model `system`, forces at `references`.
+fn start_at(system: &System, references: Vec<usize>) -> FrfStart {
+    FrfStart::new(
+        SecondOrder::new(system.0.clone(), system.1.clone(), system.2.clone()),
+        references,
+    )
+}
+
 fn truth_parameters(parametrization: &Parametrization, system: &System) -> DVector<f64> {
     let params = parametrization.parameters(system.0.nrows()).unwrap();
     let (theta, residuals) = param::project(&params, &system.0, &system.1, &system.2);
@@ -285,10 +293,7 @@ fn monte_carlo(
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let truth = truth_parameters(param, system);
     let np = truth.len();
-    let start = FrfStart::new(
-        SecondOrder::new(system.0.clone(), system.1.clone(), system.2.clone()),
-        refs.to_vec(),
-    );
+    let start = start_at(system, refs.to_vec());
     let mut sum = DVector::<f64>::zeros(np);
     let mut sum2 = DVector::<f64>::zeros(np);
     let mut predicted = DVector::<f64>::zeros(np);
@@ -432,10 +437,7 @@ fn low_coherence_lines_are_weighted_down_as_a_weighted_oracle_does() {
     };
     let truth = truth_parameters(&param, &system);
     let np = truth.len();
-    let start = FrfStart::new(
-        SecondOrder::new(system.0.clone(), system.1.clone(), system.2.clone()),
-        vec![0],
-    );
+    let start = start_at(&system, vec![0]);
     let base = FrfRefiner::default()
         .parametrization(param.clone())
         .band_hz(0.5, 25.0);
@@ -580,10 +582,7 @@ fn residual_terms_absorb_a_mode_above_the_band() {
     let scale = 0.25 * top / unit.values.last().unwrap().norm();
     add_partial_fraction(&mut frf, pole, &shape.map(|x| x * scale), 2);
     let param = shear_frame_3();
-    let start = FrfStart::new(
-        SecondOrder::new(system.0.clone(), system.1.clone(), system.2.clone()),
-        vec![0],
-    );
+    let start = start_at(&system, vec![0]);
     let worst = |residuals: ResidualTerms| {
         let refined = FrfRefiner::default()
             .parametrization(param.clone())
@@ -717,10 +716,7 @@ fn inverted_polarity_and_an_exponential_window_are_taken_from_the_identification
 fn bad_inputs_are_typed_errors_and_odd_noise_data_warnings() {
     let system = two_dof();
     let clean = frf_of(&system, &[0], FrfQuantity::Accelerance, 1.0 / 8.0);
-    let start = FrfStart::new(
-        SecondOrder::new(system.0.clone(), system.1.clone(), system.2.clone()),
-        vec![0],
-    );
+    let start = start_at(&system, vec![0]);
     let refiner = FrfRefiner::default();
     let err =
         |frf: &Frf, start: &FrfStart, refiner: &FrfRefiner| refiner.refine(frf, start).unwrap_err();
@@ -832,10 +828,7 @@ fn coherence_without_averages_estimates_one_scale() {
     };
     let mut rng = ChaCha8Rng::seed_from_u64(31);
     let frf = h1_estimate(&clean, &noise, averages, &mut rng);
-    let start = FrfStart::new(
-        SecondOrder::new(system.0.clone(), system.1.clone(), system.2.clone()),
-        vec![0],
-    );
+    let start = start_at(&system, vec![0]);
     let refiner = FrfRefiner::default().band_hz(0.5, 25.0);
     let given = refiner.refine(&frf, &start).unwrap();
     let mut unknown = frf.clone();
@@ -869,10 +862,7 @@ fn the_cost_test_does_not_warn_on_a_right_model_with_few_averages() {
     let system = two_dof();
     let clean = frf_of(&system, &[0], FrfQuantity::Accelerance, 1.0 / 32.0);
     let floor = 0.002 * rms(&clean);
-    let start = FrfStart::new(
-        SecondOrder::new(system.0.clone(), system.1.clone(), system.2.clone()),
-        vec![0],
-    );
+    let start = start_at(&system, vec![0]);
     let refiner = FrfRefiner::default().band_hz(0.5, 25.0);
     for (averages, replicates) in [(2usize, 20u64), (3, 100), (4, 300)] {
         let noise = |k: usize, i: usize, l: usize| {
@@ -933,10 +923,7 @@ fn an_frf_that_is_zero_on_the_whole_band_is_a_typed_error() {
     // channel.
     let system = two_dof();
     let clean = frf_of(&system, &[0], FrfQuantity::Accelerance, 1.0 / 8.0);
-    let start = FrfStart::new(
-        SecondOrder::new(system.0.clone(), system.1.clone(), system.2.clone()),
-        vec![0],
-    );
+    let start = start_at(&system, vec![0]);
     let refiner = FrfRefiner::default();
     let mut zero = clean.clone();
     zero.values
@@ -989,10 +976,7 @@ fn an_frf_that_is_zero_on_the_whole_band_is_a_typed_error() {
 fn a_start_that_is_not_finite_is_refused_naming_the_field() {
     let system = two_dof();
     let clean = frf_of(&system, &[0], FrfQuantity::Accelerance, 1.0 / 8.0);
-    let start = FrfStart::new(
-        SecondOrder::new(system.0.clone(), system.1.clone(), system.2.clone()),
-        vec![0],
-    );
+    let start = start_at(&system, vec![0]);
     let refiner = FrfRefiner::default();
     // The start's band, used when the refiner has none: a NaN end used to
     // be ignored silently (every line up to the other end was used).
@@ -1054,10 +1038,7 @@ fn too_few_lines_counts_the_residual_coefficients_also_without_lines() {
     // of 2 outputs x 1 reference).
     let system = two_dof();
     let clean = frf_of(&system, &[0], FrfQuantity::Accelerance, 1.0 / 8.0);
-    let start = FrfStart::new(
-        SecondOrder::new(system.0.clone(), system.1.clone(), system.2.clone()),
-        vec![0],
-    );
+    let start = start_at(&system, vec![0]);
     let err = FrfRefiner::default()
         .band_hz(100.0, 200.0)
         .refine(&clean, &start)
