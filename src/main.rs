@@ -13,6 +13,12 @@ use frameid::cli::{Cli, Command, StudyArgs};
 use frameid::commands;
 
 fn main() -> ExitCode {
+    // Before anything else: a build for vector instructions this CPU lacks would stop on
+    // an illegal instruction somewhere later (ident::cpu).
+    if let Some(message) = ident::cpu::unsupported_message() {
+        let _ = writeln!(std::io::stderr(), "error: {message}");
+        return ExitCode::from(2);
+    }
     let cli = Cli::parse();
     // Outputs are built in hidden sibling directories and renamed into place;
     // an interrupt must not leave one behind.

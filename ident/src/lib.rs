@@ -77,6 +77,7 @@
 #![deny(missing_docs)]
 
 pub mod campaign;
+pub mod cpu;
 pub mod era;
 pub mod frf;
 pub mod jackknife;

@@ -147,6 +147,11 @@ fn keep_awake() -> bool {
 /// The native part of the `frameid` package.
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // A build for vector instructions this CPU lacks would stop the interpreter on an illegal
+    // instruction later (ident::cpu): refuse to import instead.
+    if let Some(message) = ident::cpu::unsupported_message() {
+        return Err(pyo3::exceptions::PyImportError::new_err(message));
+    }
     let py = m.py();
     m.add("Error", py.get_type::<Error>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -1005,8 +1005,52 @@ fn tile_sums<const P: usize, const Q: usize>(
     a: &[&[[f64; TILE_ROWS]]; P],
     b: &[&[[f64; TILE_ROWS]]; Q],
 ) -> [[[f64; TILE_ROWS]; Q]; P] {
+    #[cfg(target_feature = "avx")]
+    if Q.is_multiple_of(2) {
+        // SAFETY: AVX is enabled for this build (`target_feature = "avx"`).
+        return unsafe { tile_sums_avx(a, b) };
+    }
     // SAFETY: SSE2 is enabled on every x86-64 target (it is in the architecture's baseline).
     unsafe { tile_sums_sse2(a, b) }
+}
+
+/// [`tile_sums_sse2`] with two columns of `b` per 256-bit vector: the same lanes (`[b_j even,
+/// b_j odd, b_j+1 even, b_j+1 odd]`), the same products and sums, half the instructions.
+#[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+#[target_feature(enable = "avx")]
+fn tile_sums_avx<const P: usize, const Q: usize>(
+    a: &[&[[f64; TILE_ROWS]]; P],
+    b: &[&[[f64; TILE_ROWS]]; Q],
+) -> [[[f64; TILE_ROWS]; Q]; P] {
+    use std::arch::x86_64::{
+        __m256d, _mm256_add_pd, _mm256_mul_pd, _mm256_setr_pd, _mm256_setzero_pd, _mm256_storeu_pd,
+    };
+    let groups = a.first().map_or(0, |c| c.len());
+    let mut acc: [[__m256d; Q]; P] = [[_mm256_setzero_pd(); Q]; P];
+    for g in 0..groups {
+        let x: [__m256d; P] = std::array::from_fn(|i| {
+            let (x0, x1) = (a[i][g][0], a[i][g][1]);
+            _mm256_setr_pd(x0, x1, x0, x1)
+        });
+        for jj in 0..Q / 2 {
+            let (y0, y1) = (b[2 * jj][g], b[2 * jj + 1][g]);
+            let y = _mm256_setr_pd(y0[0], y0[1], y1[0], y1[1]);
+            for i in 0..P {
+                acc[i][jj] = _mm256_add_pd(acc[i][jj], _mm256_mul_pd(x[i], y));
+            }
+        }
+    }
+    let mut out = [[[0.0; TILE_ROWS]; Q]; P];
+    for i in 0..P {
+        for jj in 0..Q / 2 {
+            let mut v = [0.0; 4];
+            // SAFETY: `v` holds four doubles.
+            unsafe { _mm256_storeu_pd(v.as_mut_ptr(), acc[i][jj]) };
+            out[i][2 * jj] = [v[0], v[1]];
+            out[i][2 * jj + 1] = [v[2], v[3]];
+        }
+    }
+    out
 }
 
 #[cfg(target_arch = "x86_64")]

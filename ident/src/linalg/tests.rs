@@ -577,6 +577,38 @@ fn cross_products_match_the_naive_sums_bit_for_bit_for_every_tile_shape() {
     }
 }
 
+/// The AVX tile (two columns of `b` per vector) gives the SSE2 tile's sums bit for bit: the
+/// same lanes, products and order. (The oracle test above checks whichever kernel the build
+/// uses; this one checks the other against it in an AVX build.)
+#[cfg(all(target_arch = "x86_64", target_feature = "avx"))]
+#[test]
+fn the_avx_tile_gives_the_sse2_tile_s_sums_bit_for_bit() {
+    let mut rng = ChaCha8Rng::seed_from_u64(43);
+    for groups in [0, 1, 5, 128] {
+        let col = |rng: &mut ChaCha8Rng| -> Vec<[f64; TILE_ROWS]> {
+            (0..groups)
+                .map(|_| [rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)])
+                .collect()
+        };
+        let a: Vec<Vec<[f64; TILE_ROWS]>> = (0..2).map(|_| col(&mut rng)).collect();
+        let b: Vec<Vec<[f64; TILE_ROWS]>> = (0..4).map(|_| col(&mut rng)).collect();
+        let ar: [&[[f64; TILE_ROWS]]; 2] = std::array::from_fn(|i| a[i].as_slice());
+        let br: [&[[f64; TILE_ROWS]]; 4] = std::array::from_fn(|j| b[j].as_slice());
+        // SAFETY: this test is built only with AVX enabled; SSE2 is in the x86-64 baseline.
+        let (avx, sse2) = unsafe { (tile_sums_avx(&ar, &br), tile_sums_sse2(&ar, &br)) };
+        let bits = |t: [[[f64; TILE_ROWS]; 4]; 2]| t.map(|r| r.map(|l| l.map(f64::to_bits)));
+        assert_eq!(bits(avx), bits(sse2), "{groups} row groups");
+        let br2: [&[[f64; TILE_ROWS]]; 2] = [br[0], br[1]];
+        // SAFETY: as above.
+        let (avx, sse2) = unsafe { (tile_sums_avx(&ar, &br2), tile_sums_sse2(&ar, &br2)) };
+        assert_eq!(
+            avx.map(|r| r.map(|l| l.map(f64::to_bits))),
+            sse2.map(|r| r.map(|l| l.map(f64::to_bits))),
+            "{groups} row groups, two columns"
+        );
+    }
+}
+
 /// The values-only right SVD gives the singular values of [`right_svd`] and those of the
 /// plain SVD to round-off: wide matrices (the reflected form), tall and square ones (the
 /// direct form), full rank and of rank 3.
