@@ -697,6 +697,7 @@ pub fn analyze_located(
     if let Some(r) = &refinement {
         warnings.extend(refinement_warnings(
             r.stop,
+            (r.noise_updates, r.noise_change),
             &r.uncertainty.modes,
             r.mass.nrows(),
         ));
@@ -997,9 +998,14 @@ fn residual_flags(
 /// overdamped pair of poles: from a poor start, a local minimum) and a
 /// negative damping ratio (a pole in the right half-plane, an unstable model
 /// no passive structure has: that mode's damping is not determined to its
-/// sign). The FRF route's refinement warns of the last two alike.
+/// sign). Also a noise alternation that stopped at its update limit while
+/// the levels still moved (`noise`: updates done and the last relative
+/// change): the weights, and so the estimate and its standard errors, are not
+/// those of its fixed point. The FRF route's refinement warns of the last
+/// three alike.
 fn refinement_warnings(
     stop: ident::refine::StopReason,
+    (noise_updates, noise_change): (usize, f64),
     modes: &[ident::refine::ModalEstimate],
     floors: usize,
 ) -> Vec<String> {
@@ -1007,6 +1013,13 @@ fn refinement_warnings(
     if !stop.converged() {
         out.push(format!(
             "--refine: the optimizer stopped without converging ({stop:?}): the refined M, K and damping are not the maximum-likelihood estimates"
+        ));
+    }
+    if noise_change >= ident::refine::NOISE_CHANGE_TOLERANCE {
+        out.push(format!(
+            "--refine: the noise levels still changed by {} (relative) at the last of {noise_updates} re-estimations (settled below {}): the weights, and so the refined values and their standard errors, are not yet those of the noise fit's fixed point",
+            records::numfmt::sig(noise_change, 2),
+            ident::refine::NOISE_CHANGE_TOLERANCE
         ));
     }
     if modes.len() < floors {
@@ -1632,9 +1645,9 @@ mod tests {
     fn a_refinement_that_is_no_maximum_likelihood_estimate_is_named() {
         // Converged, two stable modes for two floors: nothing to say.
         let good = [mode(2.7, 5e-3), mode(9.2, 2e-3)];
-        assert!(refinement_warnings(StopReason::Cost, &good, 2).is_empty());
+        assert!(refinement_warnings(StopReason::Cost, (2, 0.05), &good, 2).is_empty());
         // Not converged, one mode for two floors, that mode unstable: three warnings.
-        let w = refinement_warnings(StopReason::MaxIterations, &[mode(2.7, -2e-4)], 2);
+        let w = refinement_warnings(StopReason::MaxIterations, (2, 0.05), &[mode(2.7, -2e-4)], 2);
         assert_eq!(w.len(), 3, "{w:?}");
         assert!(
             w[0].contains("stopped without converging (MaxIterations)"),
@@ -1651,5 +1664,16 @@ mod tests {
             "{}",
             w[2]
         );
+        // Noise levels still moving by 30 % at the last of four updates: named; by exactly
+        // the tolerance too (it settles below it).
+        for change in [0.3, ident::refine::NOISE_CHANGE_TOLERANCE] {
+            let w = refinement_warnings(StopReason::Cost, (4, change), &good, 2);
+            assert_eq!(w.len(), 1, "{w:?}");
+            assert!(
+                w[0].contains("at the last of 4 re-estimations (settled below 0.1)"),
+                "{}",
+                w[0]
+            );
+        }
     }
 }

@@ -254,6 +254,15 @@ fn refine_warning(w: &FrfRefineWarning) -> String {
         FrfRefineWarning::OverdampedModes { oscillatory, dofs } => format!(
             "the refined model has {oscillatory} oscillatory modes for {dofs} floors (an overdamped pair of poles): a local minimum from a poor start"
         ),
+        FrfRefineWarning::NoiseNotSettled { updates, change } => format!(
+            "the noise levels had not settled after {updates} re-estimation{} ({}; settled below {}): the weights, and so the refined values and their standard errors, are not yet those of the noise fit's fixed point",
+            if *updates == 1 { "" } else { "s" },
+            match change {
+                Some(c) => format!("the last changed them by {} (relative)", sig(*c, 2)),
+                None => "a single one cannot tell".to_string(),
+            },
+            ident::refine::NOISE_CHANGE_TOLERANCE
+        ),
         other => format!("{other:?}"),
     }
 }
@@ -338,6 +347,14 @@ mod tests {
                 dofs: 3,
             },
             FrfRefineWarning::FewAverages { averages: 3 },
+            FrfRefineWarning::NoiseNotSettled {
+                updates: 4,
+                change: Some(0.31),
+            },
+            FrfRefineWarning::NoiseNotSettled {
+                updates: 1,
+                change: None,
+            },
         ];
         let texts: Vec<String> = ws.iter().map(refine_warning).collect();
         for t in &texts {
@@ -352,6 +369,18 @@ mod tests {
             texts[1].contains("2 oscillatory modes for 3 floors"),
             "{}",
             texts[1]
+        );
+        assert!(
+            texts[3].contains(
+                "had not settled after 4 re-estimations (the last changed them by 0.31 (relative); settled below 0.1)"
+            ),
+            "{}",
+            texts[3]
+        );
+        assert!(
+            texts[4].contains("after 1 re-estimation (a single one cannot tell"),
+            "{}",
+            texts[4]
         );
     }
 

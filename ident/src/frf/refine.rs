@@ -467,6 +467,16 @@ pub enum FrfRefineWarning {
         /// DOFs.
         dofs: usize,
     },
+    /// The alternation of noise fit and refinement stopped at
+    /// [`FrfRefiner::max_noise_updates`] while the estimated levels still moved: the weights,
+    /// and so the estimate and its standard errors, are not those of its fixed point.
+    NoiseNotSettled {
+        /// Re-estimations done.
+        updates: usize,
+        /// Largest relative change of a level at the last one (`None` after a single
+        /// re-estimation, which has no earlier estimate to compare with).
+        change: Option<f64>,
+    },
 }
 
 /// Result of a refinement on FRFs.
@@ -1079,6 +1089,9 @@ impl FrfRefiner {
         let mut iterations = outcome.iterations;
         let mut noise = noise;
         let mut noise_updates = 0;
+        // The last re-estimation's change (infinite for the first, which has nothing to
+        // compare with).
+        let mut noise_change = 0.0;
         let estimated = noise.source.estimated();
         // Residuals for the noise fit: with the weights of the run that produced them, so
         // that the residual terms are those of that run.
@@ -1102,6 +1115,7 @@ impl FrfRefiner {
                 };
                 noise_updates += 1;
                 noise.scale = new;
+                noise_change = change;
                 change < NOISE_CHANGE_TOLERANCE || noise_updates >= self.max_noise_updates
             } else {
                 true
@@ -1166,6 +1180,12 @@ impl FrfRefiner {
             .map_or(f64::INFINITY, |ev| ev.cost);
         if !outcome.stop.converged() {
             warnings.push(FrfRefineWarning::NotConverged { stop: outcome.stop });
+        }
+        if noise_change >= NOISE_CHANGE_TOLERANCE {
+            warnings.push(FrfRefineWarning::NoiseNotSettled {
+                updates: noise_updates,
+                change: f64::is_finite(noise_change).then_some(noise_change),
+            });
         }
         let cost = outcome.point.cost;
         if let Some((mean, variance)) = cost_moments {

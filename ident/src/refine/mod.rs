@@ -454,10 +454,23 @@ pub struct Refinement {
     pub iterations: usize,
     /// Noise re-estimations done.
     pub noise_updates: usize,
+    /// Relative change of the noise levels at the last re-estimation (the largest over the
+    /// channels; 0 with given levels). At or above [`NOISE_CHANGE_TOLERANCE`] the alternation
+    /// of noise fit and refinement stopped at [`Refiner::max_noise_updates`] before it settled
+    /// ([`Refinement::noise_settled`]).
+    pub noise_change: f64,
     /// Why the last run stopped.
     pub stop: StopReason,
     /// Transient vector `xi_h` of every hit.
     pub transients: Vec<DVector<f64>>,
+}
+
+impl Refinement {
+    /// Whether the alternation of noise fit and refinement settled: the last re-estimation
+    /// changed the levels by less than [`NOISE_CHANGE_TOLERANCE`] (always with given levels).
+    pub fn noise_settled(&self) -> bool {
+        self.noise_change < NOISE_CHANGE_TOLERANCE
+    }
 }
 
 /// Ways a refinement or a bound can fail.
@@ -1006,6 +1019,7 @@ impl Refiner {
         }
         let mut iterations = outcome.iterations;
         let mut noise_updates = 0;
+        let mut noise_change = 0.0;
         fit.estimate_inputs = matches!(self.noise, NoiseModel::Estimate);
         loop {
             let (new, last) = match &self.noise {
@@ -1033,6 +1047,7 @@ impl Refiner {
                     let new = likelihood::estimate_noise(&problem.spectra, end, &fit);
                     noise_updates += 1;
                     let change = relative_change(&noise, &new);
+                    noise_change = change;
                     (
                         new,
                         change < NOISE_CHANGE_TOLERANCE || noise_updates >= self.max_noise_updates,
@@ -1083,6 +1098,7 @@ impl Refiner {
             unknowns: problem.unknowns,
             iterations,
             noise_updates,
+            noise_change,
             stop: outcome.stop,
             transients: last.xi,
         })

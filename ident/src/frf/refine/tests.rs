@@ -1105,3 +1105,53 @@ fn a_refined_mode_with_negative_damping_is_a_warning() {
         }]
     );
 }
+
+#[test]
+fn a_noise_alternation_stopped_before_it_settled_is_a_warning() {
+    // The 2-storey frame of the test above with storey dashpots (damping ratios near 1 %),
+    // 2 % noise, estimated per output: one re-estimation cannot tell whether the levels
+    // settled, and is named; with the default four they settle and nothing is said.
+    let frame = testkit::ShearFrame::lumped(&[0.30, 0.25], &[600.0, 450.0])
+        .storey_dashpot(1, 0.2)
+        .storey_dashpot(2, 0.2);
+    let system: System = frame.into_parts();
+    let clean = frf_of(&system, &[0], FrfQuantity::Accelerance, 0.25);
+    let mut frf = clean.clone();
+    add_noise(
+        &mut frf,
+        0.02 * rms(&clean),
+        &mut ChaCha8Rng::seed_from_u64(3),
+    );
+    let start = FrfStart::new(
+        SecondOrder::new(system.0.clone(), system.1.clone(), &system.2 * 1.5),
+        vec![0],
+    );
+    let refiner = FrfRefiner::default()
+        .band_hz(0.5, 25.0)
+        .parametrization(Parametrization::shear_frame());
+    let unsettled = |w: &FrfRefineWarning| matches!(w, FrfRefineWarning::NoiseNotSettled { .. });
+    let once = FrfRefiner {
+        max_noise_updates: 1,
+        ..refiner.clone()
+    }
+    .refine(&frf, &start)
+    .unwrap();
+    assert_eq!(once.noise_updates, 1);
+    assert_eq!(
+        once.warnings
+            .iter()
+            .filter(|w| unsettled(w))
+            .collect::<Vec<_>>(),
+        vec![&FrfRefineWarning::NoiseNotSettled {
+            updates: 1,
+            change: None
+        }]
+    );
+    let settled = refiner.refine(&frf, &start).unwrap();
+    assert!(settled.noise_updates >= 2, "{}", settled.noise_updates);
+    assert!(
+        !settled.warnings.iter().any(unsettled),
+        "{:?}",
+        settled.warnings
+    );
+}
