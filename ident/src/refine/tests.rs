@@ -1215,10 +1215,17 @@ fn last_point_is_within_the_statistical_tolerance() {
 #[test]
 fn first_run_on_every_other_bin_reaches_the_same_optimum() {
     let (m, k, r) = testkit::paper_case1().into_parts();
-    let mut rng = ChaCha8Rng::seed_from_u64(11);
-    let records = random_records(&held_model(&m, &k, &r), &mut rng, 4, 1024, 0.01);
     let initial = SecondOrder::new(m.map(|v| v * 1.02), k.map(|v| v * 0.98), r.map(|v| v * 3.0));
     for intersample in [Intersample::Zoh, Intersample::Bandlimited] {
+        // Records of the model refined (held or band-limited). Held records under the
+        // band-limited model (as before) are a misfit whose refinement takes 200 to 300
+        // iterations and ends where rounding takes it: changes of the start's stiffness by
+        // 1e-13 to 2e-12 relative moved the ends of the runs with the first on every other bin
+        // by up to 0.66 standard deviations (12 starts), those on every bin by under 0.01.
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let b2 = DMatrix::from_column_slice(2, 1, &[1.0, 0.0]);
+        let truth = Model::new(&m, &k, &r, &b2, DT, intersample, None).unwrap();
+        let records = random_records(&truth, &mut rng, 4, 1024, 0.01);
         let refiner = Refiner::default().intersample(intersample);
         let problem = refiner.problem(&records, DT, 2).unwrap();
         let coarse = problem.subset(2).unwrap();
@@ -1270,7 +1277,7 @@ fn first_run_on_every_other_bin_reaches_the_same_optimum() {
             .map(|(a, b)| (a - b).abs() / a)
             .fold(0.0, f64::max);
         println!("{intersample:?}: parameters moved {moved:.2e} std, noise {noise_moved:.2e}");
-        // Measured: 3.0e-4 and 3.9e-3 standard deviations, noise levels 9.2e-4 and 2.6e-4
+        // Measured: 3.0e-4 and 2.3e-4 standard deviations, noise levels 9.2e-4 and 7.3e-4
         // (held, band-limited); the alternation of noise fit and refinement stops about 2e-3
         // from its fixed point (see `NOISE_CHANGE_TOLERANCE`).
         assert!(
