@@ -16,12 +16,18 @@
 //! information about the parameters with the transients eliminated. The gradient `J^T r`
 //! of the projected cost is exact (`X^T r = 0` at the projected solution).
 //!
+//! For band-limited models with a well-conditioned eigendecomposition the transient is
+//! parametrized in the model's eigenbasis instead, `xi = W xi'` (see [`Eigenbasis`]): the same
+//! projected cost, Gauss-Newton matrix and gradient, without the per-bin `s x s` inverse and
+//! with far fewer per-bin products in the Jacobian; [`Evaluation::xi`] is converted back.
+//!
 //! Both passes over the bins (residuals and transient regressors; Jacobian rows reduced to
 //! `J^T J`, `J^T X` and `J^T r`) run blocks of [`BLOCK_BINS`] bins as parallel tasks. Each
 //! block sums its own bins in order and the blocks' sums are added in block order, so the
 //! numbers do not depend on the number of threads or on how rayon splits the work.
 
 use super::dense;
+use super::eigenbasis::{EigenDerivatives, Eigenbasis};
 use super::model::Model;
 use super::param::Parameter;
 use super::spectra::{Bin, Spectra};
@@ -94,7 +100,11 @@ pub(crate) struct Evaluation {
 pub(crate) struct HitMatrices {
     /// Before the projection (without the transient).
     pub r0: DVector<f64>,
+    /// The transient regressors in the coordinates of the evaluation (the eigenbasis' where
+    /// it is used, see [`Eigenbasis`]).
     pub x: DMatrix<f64>,
+    /// The transient in those coordinates (`Evaluation::xi` is in the state's).
+    pub xi: DVector<f64>,
     pub j: Option<DMatrix<f64>>,
 }
 
@@ -103,7 +113,10 @@ pub(crate) struct HitMatrices {
 pub(crate) struct Singular;
 
 /// Per-bin model quantities.
-struct BinWork {
+struct BinWork<'a> {
+    /// The eigenbasis of the transient, if used: `cr` is then `C (z I - A_d)^-1 W` and `res`
+    /// is not computed (empty).
+    eigen: Option<&'a Eigenbasis>,
     n: usize,
     m: usize,
     s: usize,
@@ -124,17 +137,18 @@ struct BinWork {
     cov: Vec<C64>,
 }
 
-impl BinWork {
-    fn new(model: &Model) -> Self {
+impl<'a> BinWork<'a> {
+    fn new(model: &Model, eigen: Option<&'a Eigenbasis>) -> Self {
         let (n, r) = (model.n, model.r);
         let (m, s) = (n, 2 * n);
         Self {
+            eigen,
             n,
             m,
             s,
             r,
             tmp: vec![ZERO; s * s],
-            res: vec![ZERO; s * s],
+            res: vec![ZERO; if eigen.is_some() { 0 } else { s * s }],
             cr: vec![ZERO; m * s],
             rb: vec![ZERO; s * r],
             qi: vec![ZERO; n * n],
@@ -150,20 +164,27 @@ impl BinWork {
         self.compute_weights(noise)
     }
 
-    /// The noise-independent part: the resolvent and its products, the FRF.
+    /// The noise-independent part: the resolvent and its products (in the eigenbasis, if
+    /// used), the FRF.
     fn compute_model(&mut self, model: &Model, bin: &Bin) -> Result<(), Singular> {
         let (n, m, s, r) = (self.n, self.m, self.s, self.r);
-        let ad = model.ad.as_slice();
-        for (t, a) in self.tmp.iter_mut().zip(ad) {
-            *t = -a;
+        if let Some(eigen) = self.eigen {
+            if !eigen.resolvent_product(bin.z, &mut self.cr) {
+                return Err(Singular);
+            }
+        } else {
+            let ad = model.ad.as_slice();
+            for (t, a) in self.tmp.iter_mut().zip(ad) {
+                *t = -a;
+            }
+            for i in 0..s {
+                self.tmp[i + i * s] += bin.z;
+            }
+            if !dense::invert(&mut self.tmp, s, &mut self.res) {
+                return Err(Singular);
+            }
+            dense::mul(model.c.as_slice(), m, s, &self.res, s, &mut self.cr);
         }
-        for i in 0..s {
-            self.tmp[i + i * s] += bin.z;
-        }
-        if !dense::invert(&mut self.tmp, s, &mut self.res) {
-            return Err(Singular);
-        }
-        dense::mul(model.c.as_slice(), m, s, &self.res, s, &mut self.cr);
         match model.intersample {
             Intersample::Zoh => {
                 dense::mul(&self.res, s, s, model.bd.as_slice(), r, &mut self.rb);
@@ -494,7 +515,7 @@ fn row(bi: usize, m: usize, i: usize) -> usize {
 /// summed on its own, in term order): only the instruction count changes. Measured on
 /// `frameid sweep scenarios/paper-case1.toml --trials 4 --threads 1` (callgrind), the row
 /// lines took 237M instructions with 2 lanes and SSE2, 120M with 4 and AVX.
-const LANES: usize = if cfg!(target_feature = "avx") { 4 } else { 2 };
+pub(crate) const LANES: usize = if cfg!(target_feature = "avx") { 4 } else { 2 };
 
 /// Rows of a group's realified residual from which a hit's projection is split across the
 /// threads when the group has fewer hits than threads (a 10^6-sample record has 1.5 million),
@@ -533,6 +554,11 @@ thread_local! {
     pub(crate) static FEW_HITS_LIMIT: std::cell::Cell<usize> = const { std::cell::Cell::new(FEW_HITS) };
     /// [`SPLIT_PROJECTION_ROWS`] in tests, lowered to split the projections of small data.
     pub(crate) static SPLIT_ROWS: std::cell::Cell<usize> = const { std::cell::Cell::new(SPLIT_PROJECTION_ROWS) };
+    /// Whether the transient may take the eigenbasis form ([`Eigenbasis`]); tests turn it off
+    /// to run the resolvent form on the same data.
+    pub(crate) static EIGENBASIS: std::cell::Cell<bool> = const { std::cell::Cell::new(true) };
+    /// Evaluations in the eigenbasis form on this thread (tests check which form ran).
+    pub(crate) static EIGENBASIS_EVALUATIONS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
     /// [`NOISE_PART_CELLS`] in tests, lowered to sum small data's noise fit in parts.
     pub(crate) static NOISE_PART_LIMIT: std::cell::Cell<usize> = const { std::cell::Cell::new(NOISE_PART_CELLS) };
     /// Groups evaluated without the full cache on this thread (tests check that the
@@ -573,9 +599,11 @@ struct CacheBlock {
 
 /// The noise-independent per-bin quantities of one block of a group's bins, one bin after
 /// another: `(z I - A_d)^-1`, `C (z I - A_d)^-1`, `(z I - A_d)^-1 B_d` and `Q^-1` if the group
-/// keeps everything (empty otherwise), and the FRF `G`.
+/// keeps everything (empty otherwise), and the FRF `G`. In the eigenbasis form (`eigen`)
+/// `C (z I - A_d)^-1 W` stands for `C (z I - A_d)^-1` and the resolvent is not kept.
 #[derive(Debug)]
 pub(crate) struct ModelBlock {
+    eigen: bool,
     res: Vec<C64>,
     cr: Vec<C64>,
     rb: Vec<C64>,
@@ -603,7 +631,7 @@ pub(crate) fn model_bytes(models: &BinModels) -> usize {
 
 impl Cache {
     /// Whether a group of `nb` bins keeps everything (within [`CACHE_BYTES`]).
-    fn full(work: &BinWork, nb: usize) -> bool {
+    fn full(work: &BinWork<'_>, nb: usize) -> bool {
         let per_bin = work.res.len()
             + work.cr.len()
             + work.rb.len()
@@ -624,6 +652,7 @@ impl ModelBlock {
     fn new(work: &BinWork, bins: usize, full: bool) -> Self {
         let of = |len: usize| Vec::with_capacity(if full { bins * len } else { 0 });
         Self {
+            eigen: work.eigen.is_some(),
             res: of(work.res.len()),
             cr: of(work.cr.len()),
             rb: of(work.rb.len()),
@@ -664,7 +693,19 @@ pub(crate) fn evaluate(
     let (m, s) = (n, 2 * n);
     let np = params.len();
     let eiv = noise.errors_in_variables();
-    let work = BinWork::new(model);
+    // The transient in the model's eigenbasis where that is well conditioned (band-limited
+    // models), else in the state's coordinates through the resolvent.
+    let eigen = if tunable!(EIGENBASIS, true) {
+        Eigenbasis::new(model)
+    } else {
+        None
+    };
+    #[cfg(test)]
+    if eigen.is_some() {
+        EIGENBASIS_EVALUATIONS.with(|c| c.set(c.get() + 1));
+    }
+    let eigen = eigen.as_ref();
+    let work = BinWork::new(model, eigen);
     let hits = spectra.hits();
     let mut xi = vec![DVector::zeros(s); hits];
     let mut cost = 0.0;
@@ -686,12 +727,19 @@ pub(crate) fn evaluate(
             .as_ref()
             .expect("Jacobian requested from a model built without derivatives")
     });
+    // Parameters padded to whole chunks of `LANES` in the Jacobian pass's per-bin products.
+    let npp = np.div_ceil(LANES) * LANES;
+    // The eigenbasis' transient derivatives, the same for every bin and group.
+    let eigen_derivatives: Option<EigenDerivatives> = eigen
+        .filter(|_| derivs.is_some())
+        .map(|e| e.derivatives(model, npp));
 
     #[cfg(test)]
     let mut matrices = vec![
         HitMatrices {
             r0: DVector::zeros(0),
             x: DMatrix::zeros(0, 0),
+            xi: DVector::zeros(0),
             j: None,
         };
         hits
@@ -720,8 +768,12 @@ pub(crate) fn evaluate(
         if !full {
             RECOMPUTED_GROUPS.with(|c| c.set(c.get() + 1));
         }
-        // Kept models are made by groups that keep everything, as this one then does.
-        let given = kept_models.map(|all| &all[gi]).filter(|_| full);
+        // Kept models are made by groups that keep everything, as this one then does, in the
+        // same form (the same parameters give the same form, but tests switch it).
+        let given = kept_models
+            .map(|all| &all[gi])
+            .filter(|_| full)
+            .filter(|blocks| blocks.iter().all(|b| b.eigen == eigen.is_some()));
         #[cfg(test)]
         if given.is_some() {
             REUSED_GROUPS.with(|c| c.set(c.get() + 1));
@@ -748,7 +800,7 @@ pub(crate) fn evaluate(
         // does not depend on the number of threads.
         let pass1 = |(b0, mut xcols, mut rcols): (usize, Vec<&mut [f64]>, Vec<&mut [f64]>)|
          -> Result<(Vec<f64>, CacheBlock), Singular> {
-            let mut work = BinWork::new(model);
+            let mut work = BinWork::new(model, eigen);
             let mut tx = vec![ZERO; m * s];
             let mut xb = vec![ZERO; m * s];
             let mut e = vec![ZERO; m * hits_here];
@@ -991,6 +1043,7 @@ pub(crate) fn evaluate(
             matrices[h] = HitMatrices {
                 r0: DVector::from_column_slice(&r0s[slot * rows..(slot + 1) * rows]),
                 x,
+                xi: xi[h].clone(),
                 j: None,
             };
         }
@@ -1002,7 +1055,6 @@ pub(crate) fn evaluate(
         };
         // The model's derivatives are real; they are laid out with the parameter index
         // innermost, so that the per-bin products below run over contiguous parameters.
-        let npp = np.div_ceil(LANES) * LANES;
         let by_param = |rows: usize, cols: usize, get: &dyn Fn(usize, usize, usize) -> f64| {
             let mut out = vec![0.0; rows * cols * npp];
             for a in 0..rows {
@@ -1014,8 +1066,15 @@ pub(crate) fn evaluate(
             }
             out
         };
-        let dc = by_param(m, s, &|p, i, q| der.c[p][(i, q)].re);
-        let dad = by_param(s, s, &|p, t, q| der.ad[p][(t, q)].re);
+        // `dC` and `dA_d` for the resolvent form (the eigenbasis has its own).
+        let (dc, dad) = if eigen.is_some() {
+            (Vec::new(), Vec::new())
+        } else {
+            (
+                by_param(m, s, &|p, i, q| der.c[p][(i, q)].re),
+                by_param(s, s, &|p, t, q| der.ad[p][(t, q)].re),
+            )
+        };
         let (dd, dbd, basis) = match model.intersample {
             Intersample::Zoh => (
                 by_param(m, r, &|p, i, l| der.d[p][(i, l)].re),
@@ -1040,7 +1099,8 @@ pub(crate) fn evaluate(
         // as `s` complex terms, `-sc L^-1 (dC + C R dA_d)` with the coefficients `R z xi`
         // (`s^2` per hit), instead of real ones with the coefficients `xi`, whose weights are
         // `s` times as many products per bin: the same rows, summed in another order.
-        let few = hits_here <= tunable!(FEW_HITS_LIMIT, FEW_HITS);
+        // In the eigenbasis the real terms' weights are cheap: used for every hit count.
+        let few = eigen.is_none() && hits_here <= tunable!(FEW_HITS_LIMIT, FEW_HITS);
         let tc = if few { s } else { 0 };
         // Complex terms of row `i`: the transient terms (few hits), the `r` inputs and, with
         // the weight derivative, the whitened residuals `0..=i`; real terms: the `s`
@@ -1063,8 +1123,8 @@ pub(crate) fn evaluate(
         let mut jtx2 = vec![0.0; if second { hits_here * np * s } else { 0 }];
         /// Working memory of the Jacobian pass over one block (every value read is
         /// written first in the same block).
-        struct Scratch {
-            work: BinWork,
+        struct Scratch<'a> {
+            work: BinWork<'a>,
             ma_re: Vec<f64>,
             ma_im: Vec<f64>,
             dg: Vec<C64>,
@@ -1084,9 +1144,9 @@ pub(crate) fn evaluate(
         // Per bin, `[(a * cols + b) * npp + p]`: `dC + C (z I - A_d)^-1 dA_d` (m x s, real and
         // imaginary parts), `dG` (m x r) and, band-limited, `E_p G` (n x r).
         let scratch = || Scratch {
-            work: BinWork::new(model),
-            ma_re: vec![0.0; m * s * npp],
-            ma_im: vec![0.0; m * s * npp],
+            work: BinWork::new(model, eigen),
+            ma_re: vec![0.0; if eigen.is_some() { 0 } else { m * s * npp }],
+            ma_im: vec![0.0; if eigen.is_some() { 0 } else { m * s * npp }],
             dg: vec![ZERO; m * r * npp],
             eg: vec![ZERO; n * r * npp],
             factor: vec![ZERO; npp],
@@ -1097,7 +1157,7 @@ pub(crate) fn evaluate(
             sw: vec![0.0; m * s * np2],
             jblk: vec![0.0; np * cap],
             jblk2: vec![0.0; if second { np * cap } else { 0 }],
-            rz: vec![ZERO; s * s],
+            rz: vec![ZERO; if eigen.is_some() { 0 } else { s * s }],
             acc_re: vec![0.0; npp],
             acc_im: vec![0.0; npp],
         };
@@ -1149,7 +1209,7 @@ pub(crate) fn evaluate(
                 let bi = b0 + lb;
                 let (res, cr, rb, qi) = if cache.full {
                     (
-                        cache.get(bi, |b| &b.model.res, s * s),
+                        cache.get(bi, |b| &b.model.res, work.res.len()),
                         cache.get(bi, |b| &b.model.cr, m * s),
                         cache.get(bi, |b| &b.model.rb, s * r),
                         cache.get(bi, |b| &b.model.qi, n * n),
@@ -1166,9 +1226,13 @@ pub(crate) fn evaluate(
                 // dT/dtheta_p (z I - A_d)^-1 with T = C (z I - A_d)^-1 z: `dC + C R dA_d`.
                 // Per output `i`, the `s npp` values of `(q, p)` are contiguous in `dC`,
                 // `dA_d` (row `t`) and the result: axpys over whole rows, summed over `t` in
-                // order.
+                // order. In the eigenbasis: `-sc d(T W)/dtheta_p` at fixed `xi'` itself, laid out
+                // for `hit_rows` and whitened there (below).
                 let row_len = s * npp;
-                for i in 0..m {
+                if let (Some(eigen), Some(ed)) = (eigen, eigen_derivatives.as_ref()) {
+                    eigen.derivative_terms(ed, bin.z, -sc, sw);
+                }
+                for i in (0..m).filter(|_| eigen.is_none()) {
                     let (are, aim) = (
                         &mut ma_re[i * row_len..(i + 1) * row_len],
                         &mut ma_im[i * row_len..(i + 1) * row_len],
@@ -1251,10 +1315,11 @@ pub(crate) fn evaluate(
                 }
                 // Whitened once per bin, shared by the hits: forward substitution with `L`
                 // (real diagonal) on the output index.
+                let resolvent = eigen.is_none();
                 for i in 0..m {
                     for k in 0..i {
                         let lik = l[i + k * m];
-                        for q in 0..s {
+                        for q in (0..s).filter(|_| resolvent) {
                             let (oi, ok) = ((i * s + q) * npp, (k * s + q) * npp);
                             for p in 0..npp {
                                 let (kr, ki) = (ma_re[ok + p], ma_im[ok + p]);
@@ -1271,11 +1336,13 @@ pub(crate) fn evaluate(
                         }
                     }
                     let d = l[i + i * m].re;
-                    for v in &mut ma_re[i * s * npp..(i + 1) * s * npp] {
-                        *v /= d;
-                    }
-                    for v in &mut ma_im[i * s * npp..(i + 1) * s * npp] {
-                        *v /= d;
+                    if resolvent {
+                        for v in &mut ma_re[i * s * npp..(i + 1) * s * npp] {
+                            *v /= d;
+                        }
+                        for v in &mut ma_im[i * s * npp..(i + 1) * s * npp] {
+                            *v /= d;
+                        }
                     }
                     for v in &mut dg[i * r * npp..(i + 1) * r * npp] {
                         *v /= d;
@@ -1284,6 +1351,34 @@ pub(crate) fn evaluate(
                 // Transient terms: `-sc L^-1 (dC + C R dA_d) R z`, the derivative of the
                 // whitened transient regressor, whose coefficients are the real `xi`.
                 // Laid out for `hit_rows`: per output and chunk of parameters, the `s` terms.
+                // In the eigenbasis `-sc L^-1 d(T W)`, with the coefficients `xi'`.
+                if eigen.is_some() {
+                    // Per output, the `chunks s` blocks of `LANES` real and `LANES` imaginary
+                    // parts, the same `(chunk, term)` in every output's row.
+                    let len = chunks * s * 2 * LANES;
+                    for i in 0..m {
+                        let (done, rest) = sw.split_at_mut(i * len);
+                        let row = &mut rest[..len];
+                        for k in 0..i {
+                            let lik = l[i + k * m];
+                            for (a, b) in row
+                                .chunks_exact_mut(2 * LANES)
+                                .zip(done[k * len..(k + 1) * len].chunks_exact(2 * LANES))
+                            {
+                                let (are, aim) = a.split_at_mut(LANES);
+                                let (bre, bim) = b.split_at(LANES);
+                                for t in 0..LANES {
+                                    are[t] -= lik.re * bre[t] - lik.im * bim[t];
+                                    aim[t] -= lik.re * bim[t] + lik.im * bre[t];
+                                }
+                            }
+                        }
+                        let d = l[i + i * m].re;
+                        for v in row.iter_mut() {
+                            *v /= d;
+                        }
+                    }
+                }
                 for (v, r) in rz.iter_mut().zip(res) {
                     *v = r * bin.z;
                 }
@@ -1297,7 +1392,7 @@ pub(crate) fn evaluate(
                         }
                     }
                 }
-                for i in (0..m).filter(|_| !few) {
+                for i in (0..m).filter(|_| !few && eigen.is_none()) {
                     let (mre, mim) = (
                         &ma_re[i * row_len..(i + 1) * row_len],
                         &ma_im[i * row_len..(i + 1) * row_len],
@@ -1533,6 +1628,12 @@ pub(crate) fn evaluate(
             fisher.clone()
         }
     });
+    // The transients in the state's coordinates: `xi = W xi'`.
+    if let Some(eigen) = eigen {
+        for x in xi.iter_mut() {
+            *x = &eigen.w * &*x;
+        }
+    }
     let has_jac = jac.is_some();
     Ok(Evaluation {
         cost,

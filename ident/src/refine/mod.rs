@@ -105,6 +105,7 @@
 // `pub(crate)`: the FRF refinement (`crate::frf::refine`) reuses the parametrization, the
 // model, the optimizer and the uncertainty propagation.
 pub(crate) mod dense;
+mod eigenbasis;
 pub(crate) mod likelihood;
 pub(crate) mod lm;
 pub(crate) mod model;
