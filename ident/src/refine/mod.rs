@@ -587,16 +587,20 @@ struct Problem {
 /// own). Before that run was on a subset, 4 of 9 evaluations took a kept model on analyzer
 /// seeds 1 and 2 and held seed 101 of paper case 1, 10 hits; now usually 3 of the 7 on all
 /// bins. Kept while they
-/// take at most [`MEMO_BYTES`] together (so never for a long record, whose groups do not keep
-/// their models whole).
+/// take at most [`MEMO_BYTES`] together (so never for a long record).
 #[derive(Default)]
 struct Memo {
     entries: Vec<(DVector<f64>, likelihood::BinModels)>,
 }
 
 /// Largest memory the per-bin models of [`Memo`] take together (a 10-hit paper-case-1
-/// campaign's take 0.42 MB a point, 0.56 MB held; measured on the seeds above).
-const MEMO_BYTES: usize = 64 << 20;
+/// campaign's take 0.42 MB a point, 0.56 MB held; measured on the seeds above). Half the
+/// per-bin cache's budget: since the eigenbasis form needs no resolvent, the first run of a
+/// 10^6-sample record (on every other bin) keeps its per-bin models whole, and kept in the memo
+/// as well (for no reuse: that run's points are not evaluated again) they raised the peak
+/// resident set of `identify --refine` from 287 to 348 MB (`/usr/bin/time`, same output
+/// bytes).
+const MEMO_BYTES: usize = 32 << 20;
 
 impl Memo {
     /// The models kept for `theta` (the same bits).
