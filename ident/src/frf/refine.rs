@@ -610,7 +610,6 @@ struct Line {
     regressors: Vec<C64>,
 }
 
-/// Everything fixed for one refinement.
 /// Residual RMS of an output and reference, relative to the RMS of its data, at or below
 /// which a fit is exact: the residuals measure no noise. At the end of
 /// `noise_free_frfs_give_the_frame_from_a_perturbed_start`'s refinements (noise-free FRFs)
@@ -630,6 +629,7 @@ fn above_exact_fit(problem: &Problem, residuals: &[DMatrix<C64>]) -> bool {
     })
 }
 
+/// Everything fixed for one refinement.
 struct Problem {
     params: Vec<Parameter>,
     bases: Vec<DMatrix<C64>>,
